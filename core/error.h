@@ -1,0 +1,33 @@
+// User-facing errors: bad config, mesh, image or flag. One clear message naming the file, the place
+// and what was expected; the CLI turns it into exit status 2. Internal invariant breaks are not
+// InputErrors; they are bugs.
+#pragma once
+#include <stdexcept>
+#include <string>
+
+namespace dg {
+
+class InputError : public std::runtime_error {
+ public:
+  // line and column are 1-based; 0 means "no position".
+  InputError(std::string file, int line, int column, const std::string& what)
+      : std::runtime_error(format(file, line, column, what)), file_(std::move(file)), line_(line),
+        column_(column) {}
+  InputError(std::string file, const std::string& what) : InputError(std::move(file), 0, 0, what) {}
+  const std::string& file() const { return file_; }
+  int line() const { return line_; }
+  int column() const { return column_; }
+
+ private:
+  static std::string format(const std::string& f, int l, int c, const std::string& w) {
+    std::string s = f;
+    if (l > 0) s += ":" + std::to_string(l) + (c > 0 ? ":" + std::to_string(c) : "");
+    return (s.empty() ? std::string() : s + ": ") + w;
+  }
+  std::string file_;
+  int line_, column_;
+};
+
+constexpr int kExitInputError = 2;
+
+}  // namespace dg

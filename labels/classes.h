@@ -1,0 +1,15 @@
+// Label classes. The id is the value in the semantic mask and the COCO category_id; 0 is background.
+#pragma once
+#include <cstdint>
+#include <string>
+
+namespace dg {
+
+enum class DefectClass : uint8_t { Background = 0, Dent = 1, Scratch = 2, Rust = 3, Patina = 4 };
+constexpr int kNumDefectClasses = 4;
+
+const char* className(DefectClass c);  // "dent", ...
+// Suggested display colour for overlays (sRGB 8-bit), documented in docs/output.md.
+void classColor(DefectClass c, uint8_t rgb[3]);
+
+}  // namespace dg

@@ -1,0 +1,29 @@
+// Writing images: PNG 8/16-bit (sRGB transfer curve applied to linear RGB), single-channel label
+// PNGs, and multi-layer EXR (linear, float) through OpenImageIO.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+
+namespace dg {
+
+float linearToSrgb(float v);  // IEC 61966-2-1 transfer curve, input clamped to [0, 1]
+float srgbToLinear(float v);
+
+void writePngRgb8(const std::string& path, const ImageF& linear_rgb);
+void writePngRgb16(const std::string& path, const ImageF& linear_rgb);
+void writePngGray8(const std::string& path, const Image<uint8_t>& img);
+void writePngGray16(const std::string& path, const Image<uint16_t>& img);
+
+// One named layer of an EXR: channel names are "<layer>.<suffix>" (e.g. "normal.X"); the layer
+// named "" gives plain "R", "G", "B".
+struct ExrLayer {
+  std::string name;
+  std::vector<std::string> channel_suffixes;  // e.g. {"R","G","B"} or {"Z"}
+  const ImageF* image;                        // channels must match channel_suffixes.size()
+};
+void writeExr(const std::string& path, int width, int height, const std::vector<ExrLayer>& layers);
+
+}  // namespace dg

@@ -1,0 +1,66 @@
+// Materials and their BSDFs, evaluated in a local shading frame where the normal is +z. All
+// directions point away from the surface. eval() returns f(wo, wi) without the cosine.
+//
+// Kinds:
+//  - Conductor: microfacet (GGX or Beckmann) with Smith masking-shadowing (height-correlated) and
+//    the exact Fresnel equations for a complex index of refraction n + ik per RGB channel.
+//  - Plastic: a dielectric microfacet coat (IOR) over a Lambertian base colour.
+//  - CarPaint: a clear coat (dielectric microfacet, coat roughness, coat IOR) layered over a base
+//    that mixes Lambertian base colour with a metallic-flake glossy lobe (flake amount in [0,1]).
+// Roughness r is perceptual: the microfacet alpha is r^2.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/math.h"
+
+namespace dg {
+
+enum class MicrofacetModel { GGX, Beckmann };
+enum class MaterialKind { Conductor, Plastic, CarPaint };
+
+struct Material {
+  MaterialKind kind = MaterialKind::Plastic;
+  MicrofacetModel model = MicrofacetModel::GGX;
+  Rgb base_color{0.5f, 0.5f, 0.5f};  // linear; Plastic and CarPaint base
+  float roughness = 0.3f;            // Conductor and Plastic surface roughness
+  Rgb eta{1.5f}, k{0.0f};            // Conductor complex IOR per channel
+  float ior = 1.5f;                  // Plastic coat IOR
+  // CarPaint
+  float flake_amount = 0.0f;      // 0 = solid paint, 1 = fully metallic base
+  float flake_roughness = 0.35f;  // glossiness of the flake lobe
+  float coat_roughness = 0.05f;
+  float coat_ior = 1.5f;
+};
+
+// A named metal with its complex IOR (n, k) for the R, G, B channels and where the values come from.
+struct MetalIor {
+  std::string name;
+  Rgb eta, k;
+  std::string source;
+};
+const std::vector<MetalIor>& metalTable();       // steel, aluminium, chrome, copper, brass, titanium, ...
+const MetalIor* findMetal(const std::string& name);  // nullptr if unknown
+
+// Exact Fresnel reflectance of an unpolarised wave at a conductor (or dielectric when k = 0)
+// interface from a medium of index 1, for cos(theta_i) in [0, 1].
+float fresnelConductor(float cos_i, float eta, float k);
+Rgb fresnelConductor(float cos_i, Rgb eta, Rgb k);
+// Exact dielectric Fresnel (k = 0), handles total internal reflection when eta < 1.
+float fresnelDielectric(float cos_i, float eta);
+
+struct BsdfSample {
+  Vec3f wi;      // local, sampled incoming direction
+  Rgb f;         // BSDF value for (wo, wi)
+  float pdf = 0; // solid-angle density of wi
+};
+
+Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi);
+float pdfBsdf(const Material& m, Vec3f wo, Vec3f wi);
+// u0 chooses a lobe, u chooses the direction. Returns false if no direction was produced.
+bool sampleBsdf(const Material& m, Vec3f wo, float u0, Vec2f u, BsdfSample& out);
+
+// A roughness so low that the lobe is treated as a mirror by the path tracer's MIS (still finite).
+constexpr float kMinRoughness = 0.02f;
+
+}  // namespace dg

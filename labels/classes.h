@@ -3,10 +3,9 @@
 #include <cstdint>
 #include <string>
 
-namespace dg {
+#include "core/defect_class.h"
 
-enum class DefectClass : uint8_t { Background = 0, Dent = 1, Scratch = 2, Rust = 3, Patina = 4 };
-constexpr int kNumDefectClasses = 4;
+namespace dg {
 
 const char* className(DefectClass c);  // "dent", ...
 // Suggested display colour for overlays (sRGB 8-bit), documented in docs/output.md.

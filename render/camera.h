@@ -28,7 +28,9 @@ struct Camera {
   Vec3d position() const;                     // camera centre in world coordinates
   Vec3d forward() const;                      // optical axis (+z of the camera) in world coordinates
   Vec2d distortNormalized(Vec2d xy) const;    // OpenCV's forward distortion on normalized coords
-  Vec2d undistortNormalized(Vec2d xy_distorted) const;  // its inverse (iterative, converged)
+  // Its inverse, by damped Newton iteration to a residual below 1e-12. Where the polynomial has no
+  // inverse (far outside a calibrated image) it returns the closest point it found.
+  Vec2d undistortNormalized(Vec2d xy_distorted) const;
   // World point to pixel, with distortion; same result as cv::projectPoints. Points behind the
   // camera (z <= 0) give NaN.
   Vec2d project(Vec3d world) const;
@@ -40,12 +42,16 @@ Camera cameraLookAt(const CameraIntrinsics& k, Vec3d eye, Vec3d target, Vec3d up
 
 // A calibration written by cv::FileStorage (YAML, XML or JSON) with camera_matrix (3x3),
 // distortion_coefficients (1x5, 5x1, 1x4, ...), image_width, image_height, as OpenCV's calibration
-// sample writes them. Throws InputError naming the file and the missing or malformed node.
+// sample writes them. Throws InputError naming the file and the missing or malformed node; also
+// when the distortion has nonzero rational/thin-prism/tilt terms (entries past the fifth:
+// unsupported) or folds over (cannot be inverted) inside the image.
 CameraIntrinsics loadCalibration(const std::string& path);
 void saveCalibration(const std::string& path, const CameraIntrinsics& k);
 
 // Primary-ray generation. The inverse distortion is solved once per camera on the grid of pixel
-// corners and interpolated bilinearly, so generating a ray costs a few multiply-adds.
+// corners and interpolated bilinearly, so generating a ray costs a few multiply-adds. Without
+// distortion there is no grid and rays are exact. Throws std::invalid_argument when the
+// distortion cannot be inverted over the image (loadCalibration reports that as an InputError).
 class RayGenerator {
  public:
   explicit RayGenerator(const Camera& cam);
@@ -59,7 +65,8 @@ class RayGenerator {
   std::vector<Vec2f> grid_;       // undistorted normalized coordinates at each grid node
   Vec3f org_;
   float R_[9];                    // camera-to-world rotation (transpose of world_to_camera.R)
-  Vec2f lookup(float px, float py) const;
+  // Interpolated grid value at (px, py) and its derivatives for a one-pixel step in x and in y.
+  void lookup(float px, float py, Vec2f& xy, Vec2f& dx, Vec2f& dy) const;
 };
 
 }  // namespace dg

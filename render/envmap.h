@@ -2,7 +2,12 @@
 // with OpenImageIO (EXR, HDR, ...), importance-sampled by a piecewise-constant 2-D distribution
 // weighted by luminance and sin(theta).
 // World convention: +z is up. Direction (theta, phi) with theta from +z and phi = atan2(y, x);
-// image column u = phi / 2pi (wrapped to [0,1), then rotated by rotation_deg), row v = theta / pi.
+// image column u = phi / 2pi - rotation (wrapped to [0,1)), row v = theta / pi: a positive
+// rotation_deg turns the environment counterclockwise about +z (a feature at phi moves to
+// phi + rotation). Row 0 is the top of the image (+z). Lookups pick the nearest pixel, matching the
+// piecewise-constant sampling density exactly.
+// Integer images (PNG, 8/16-bit TIFF) are taken as sRGB-encoded unless OIIO reports a linear colour
+// space; float images as linear. 1 channel is replicated to RGB; alpha is ignored.
 #pragma once
 #include <string>
 #include <vector>
@@ -15,12 +20,14 @@ class EnvironmentMap {
  public:
   static EnvironmentMap constant(Rgb radiance);
   // Throws InputError naming the file when it cannot be read or is not 2:1-ish lat-long (any size
-  // with width >= 2 and height >= 1 is accepted; non-finite pixels are an error).
+  // with width >= 2 and height >= 1 is accepted; non-finite or negative pixels are an error).
+  // An all-black map loads; it emits nothing and sample() then returns pdf 0.
   static EnvironmentMap load(const std::string& path, float scale = 1.0f, float rotation_deg = 0.0f);
 
   bool isConstant() const { return w_ == 0; }
   Rgb eval(Vec3f dir) const;                          // radiance arriving from direction dir
-  Vec3f sample(Vec2f u, Rgb& radiance, float& pdf) const;  // pdf in solid angle
+  // pdf in solid angle; 0 for a sample exactly at a pole (discard it).
+  Vec3f sample(Vec2f u, Rgb& radiance, float& pdf) const;
   float pdf(Vec3f dir) const;
 
  private:
@@ -30,7 +37,7 @@ class EnvironmentMap {
   std::vector<Rgb> pixels_;
   std::vector<float> marginal_cdf_;       // over rows, size h+1
   std::vector<float> conditional_cdf_;    // per row, size h*(w+1)
-  std::vector<float> row_integral_;
+  std::vector<float> row_integral_;       // per row: mean weight over the row
   float total_ = 0.0f;
 };
 

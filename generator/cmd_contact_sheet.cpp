@@ -1,0 +1,107 @@
+#include <CLI/CLI.hpp>
+
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "core/fsutil.h"
+#include "generator/commands.h"
+#include "labels/classes.h"
+
+namespace dg {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+cv::Mat overlay(const cv::Mat& img, const cv::Mat& sem, const cv::Mat& inst) {
+  cv::Mat out = img.clone();
+  for (int c = 1; c <= kNumDefectClasses; ++c) {
+    uint8_t rgb[3];
+    classColor(DefectClass(c), rgb);
+    cv::Scalar bgr(rgb[2], rgb[1], rgb[0]);
+    cv::Mat m = sem == c;
+    if (cv::countNonZero(m) == 0) continue;
+    cv::Mat tint(out.size(), out.type(), bgr), blended;
+    cv::addWeighted(out, 0.55, tint, 0.45, 0.0, blended);
+    blended.copyTo(out, m);
+  }
+  // Outline every instance in its class colour.
+  double maxid;
+  cv::minMaxLoc(inst, nullptr, &maxid);
+  for (int id = 1; id <= int(maxid); ++id) {
+    cv::Mat m = inst == id;
+    if (cv::countNonZero(m) == 0) continue;
+    std::vector<std::vector<cv::Point>> contours;
+    cv::findContours(m, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+    cv::Point p;
+    cv::minMaxLoc(m, nullptr, nullptr, nullptr, &p);
+    uint8_t rgb[3];
+    classColor(DefectClass(sem.at<uint8_t>(p)), rgb);
+    cv::drawContours(out, contours, -1, cv::Scalar(rgb[2], rgb[1], rgb[0]), 1, cv::LINE_8);
+  }
+  return out;
+}
+
+void makeContactSheet(const std::string& dir, const std::string& out_png, int columns, int thumb) {
+  fs::path d(dir);
+  if (!fs::is_directory(d / "images")) throw InputError(dir, "not a defectgen dataset folder (no images/)");
+  std::vector<fs::path> images;
+  for (auto& e : fs::directory_iterator(d / "images"))
+    if (e.path().extension() == ".png" && e.path().filename().string()[0] != '.') images.push_back(e.path());
+  std::sort(images.begin(), images.end());
+  if (images.empty()) throw InputError(dir, "no images in images/");
+  std::vector<cv::Mat> tiles;
+  for (auto& p : images) {
+    cv::Mat img = cv::imread(p.string(), cv::IMREAD_COLOR);
+    if (img.empty()) throw InputError(p.string(), "cannot read image");
+    if (img.depth() != CV_8U) img.convertTo(img, CV_8U, 1.0 / 257.0);
+    std::string stem = p.stem().string();
+    cv::Mat sem = cv::imread((d / "masks" / (stem + "_semantic.png")).string(), cv::IMREAD_UNCHANGED);
+    cv::Mat inst = cv::imread((d / "masks" / (stem + "_instance.png")).string(), cv::IMREAD_UNCHANGED);
+    if (!sem.empty() && !inst.empty()) {
+      inst.convertTo(inst, CV_32S);
+      img = overlay(img, sem, inst);
+    }
+    cv::Mat t;
+    double s = double(thumb) / img.cols;
+    cv::resize(img, t, cv::Size(thumb, std::max(1, int(img.rows * s + 0.5))), 0, 0, cv::INTER_AREA);
+    cv::putText(t, stem, cv::Point(4, 14), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+    tiles.push_back(t);
+  }
+  int rows = (int(tiles.size()) + columns - 1) / columns;
+  int th = 0;
+  for (auto& t : tiles) th = std::max(th, t.rows);
+  int cols = std::min(columns, int(tiles.size()));
+  cv::Mat sheet(rows * (th + 2), cols * (thumb + 2), CV_8UC3, cv::Scalar(32, 32, 32));
+  for (size_t i = 0; i < tiles.size(); ++i) {
+    int r = int(i) / columns, c = int(i) % columns;
+    tiles[i].copyTo(sheet(cv::Rect(c * (thumb + 2) + 1, r * (th + 2) + 1, tiles[i].cols, tiles[i].rows)));
+  }
+  writeAtomically(out_png, [&](const fs::path& tmp) {
+    if (!cv::imwrite(tmp.string(), sheet)) throw std::runtime_error("cannot write " + tmp.string());
+  });
+}
+
+}  // namespace
+
+void addContactSheetCommand(CLI::App& app) {
+  struct Opts {
+    std::string dir, out;
+    int columns = 5, thumb = 256;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* c = app.add_subcommand("contact-sheet", "Grid of a dataset's images with the masks overlaid");
+  c->add_option("dataset", o->dir, "Dataset folder written by generate")->required();
+  c->add_option("--out", o->out, "Output PNG (default: DATASET/contact_sheet.png)");
+  c->add_option("--columns", o->columns, "Images per row")->check(CLI::Range(1, 64));
+  c->add_option("--thumb", o->thumb, "Width of each image in pixels")->check(CLI::Range(16, 4096));
+  c->callback([o] {
+    std::string out = o->out.empty() ? (fs::path(o->dir) / "contact_sheet.png").string() : o->out;
+    makeContactSheet(o->dir, out, o->columns, o->thumb);
+    std::fprintf(stderr, "defectgen: contact sheet written to %s\n", out.c_str());
+  });
+}
+
+}  // namespace dg

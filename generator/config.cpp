@@ -1,0 +1,928 @@
+#include "generator/config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/fsutil.h"
+#include "render/bsdf.h"
+
+namespace dg {
+
+using nlohmann::json;
+
+// ---------------------------------------------------------------------------------------------
+// Schema
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+Field num(std::string key, std::string unit, json def, double lo, double hi, std::string doc,
+          bool random_ok = true, bool lo_excl = false) {
+  Field f;
+  f.key = std::move(key);
+  f.type = FieldType::Number;
+  f.unit = std::move(unit);
+  f.default_value = std::move(def);
+  f.required = f.default_value.is_null();
+  f.min = lo;
+  f.max = hi;
+  f.min_exclusive = lo_excl;
+  f.doc = std::move(doc);
+  f.random_ok = random_ok;
+  return f;
+}
+Field integer(std::string key, std::string unit, json def, double lo, double hi, std::string doc,
+              bool random_ok = false) {
+  Field f = num(std::move(key), std::move(unit), std::move(def), lo, hi, std::move(doc), random_ok);
+  f.type = FieldType::Integer;
+  return f;
+}
+Field flag(std::string key, bool def, std::string doc) {
+  Field f;
+  f.key = std::move(key);
+  f.type = FieldType::Bool;
+  f.default_value = def;
+  f.doc = std::move(doc);
+  return f;
+}
+Field enumeration(std::string key, std::vector<std::string> values, json def, std::string doc,
+                  bool random_ok = false) {
+  Field f;
+  f.key = std::move(key);
+  f.type = FieldType::Enum;
+  f.enum_values = std::move(values);
+  f.default_value = std::move(def);
+  f.required = f.default_value.is_null();
+  f.doc = std::move(doc);
+  f.random_ok = random_ok;
+  return f;
+}
+Field path(std::string key, std::string doc, bool required) {
+  Field f;
+  f.key = std::move(key);
+  f.type = FieldType::Path;
+  f.required = required;
+  f.doc = std::move(doc);
+  return f;
+}
+Field vec(std::string key, int n, std::string unit, json def, double lo, double hi, std::string doc,
+          bool random_ok = true, FieldType elem = FieldType::Number) {
+  Field f = num(std::move(key), std::move(unit), std::move(def), lo, hi, std::move(doc), random_ok);
+  f.type = FieldType::Vector;
+  f.vector_size = n;
+  f.element_type = elem;
+  return f;
+}
+Field rgb(std::string key, json def, double hi, std::string doc) {
+  return vec(std::move(key), 3, "linear RGB", std::move(def), 0, hi, std::move(doc));
+}
+
+std::vector<std::string> metalNames() {
+  std::vector<std::string> v;
+  for (auto& m : metalTable()) v.push_back(m.name);
+  return v;
+}
+
+Field buildSchema() {
+  Field root;
+  root.key = "";
+  root.type = FieldType::Object;
+  root.fields.push_back(integer("seed", "", 0, 0, 9.007199254740992e15,
+                                "Master seed. Every random value of sample i is drawn from a "
+                                "counter-based stream keyed by (seed, i). `--seed` overrides it."));
+  root.fields.push_back(integer("count", "samples", 10, 1, 1e7,
+                                "Number of samples (images) in the dataset. `--count` overrides it."));
+
+  // part
+  Field part;
+  part.key = "part";
+  part.type = FieldType::Object;
+  part.required = true;
+  part.doc = "The car part. It is the same for every sample of a dataset, so its BVH is built once.";
+  Field tess = num("tessellation_mm", "mm", 10, 0.5, 200,
+                   "Largest edge length of the built-in part's triangles.", false);
+  part.variants["plate"] = {num("width_mm", "mm", 300, 10, 5000, "Width (u direction).", false),
+                            num("height_mm", "mm", 200, 10, 5000, "Height (v direction).", false), tess};
+  part.variant_docs["plate"] = "Flat test plate in the z = 0 plane, outside facing +z.";
+  part.variants["door_panel"] = {
+      num("width_mm", "mm", 1000, 100, 3000, "Width along the car.", false),
+      num("height_mm", "mm", 600, 100, 2000, "Height, measured along the bow.", false),
+      num("curvature_radius_mm", "mm", 1500, 200, 100000, "Radius of the bow across the height.", false),
+      num("character_line_height", "fraction", 0.6, 0.05, 0.95,
+          "Position of the character line, as a fraction of the height.", false),
+      num("character_line_depth_mm", "mm", 4, 0, 50, "Height of the character-line ridge.", false),
+      num("character_line_width_mm", "mm", 20, 1, 200, "Width of the character-line ridge.", false),
+      tess};
+  part.variant_docs["door_panel"] = "Door skin curved across its height, with a character line.";
+  part.variants["hood"] = {num("width_mm", "mm", 1400, 200, 3000, "Width across the car.", false),
+                           num("length_mm", "mm", 1100, 200, 3000, "Length along the car.", false),
+                           num("crown_mm", "mm", 40, 0, 300, "Height of the crown in the middle.", false),
+                           tess};
+  part.variant_docs["hood"] = "Doubly curved hood, crowned in the middle.";
+  part.variants["fender"] = {
+      num("length_mm", "mm", 900, 200, 3000, "Length along the car.", false),
+      num("height_mm", "mm", 600, 200, 2000, "Height.", false),
+      num("arch_radius_mm", "mm", 330, 50, 800, "Radius of the wheel-arch cut-out.", false),
+      num("curvature_radius_mm", "mm", 1200, 200, 100000, "Radius of the curve in plan view.", false),
+      tess};
+  part.variant_docs["fender"] = "Front fender: side panel curved in plan, with a wheel-arch cut-out.";
+  part.variants["mesh"] = {
+      path("path", "Mesh file: OBJ, PLY, STL, OFF or glTF 2.0 (.gltf/.glb), relative to the config.", true),
+      num("unit_scale_to_mm", "", 1.0, 0, 1e6, "Factor from the file's units to mm (0.001 for metres... "
+          "use 1000).", false, true)};
+  part.variants["mesh"][1].doc = "Factor from the file's units to mm (1000 for a file in metres).";
+  part.variant_docs["mesh"] =
+      "A mesh from a file. UVs come from the file (OBJ vt, glTF TEXCOORD_0); without them they are "
+      "computed by CGAL's LSCM parameterization (the mesh must then be one disk-like patch).";
+  root.fields.push_back(part);
+
+  // material
+  Field mat;
+  mat.key = "material";
+  mat.type = FieldType::Object;
+  mat.doc = "What the part's surface is made of. Microfacet roughness r is perceptual: alpha = r^2.";
+  mat.default_value = json::object({{"type", "car_paint"}});
+  Field micro = enumeration("microfacet", {"ggx", "beckmann"}, "ggx",
+                            "Microfacet distribution (Smith height-correlated masking-shadowing).");
+  mat.variants["car_paint"] = {
+      rgb("base_color", {0.55, 0.03, 0.03}, 1, "Base coat colour."),
+      num("flake_amount", "", 0.3, 0, 1, "Share of metallic flakes in the base coat (0 = solid paint)."),
+      num("flake_roughness", "", 0.35, 0.02, 1, "Roughness of the flakes' glossy lobe."),
+      num("clear_coat_roughness", "", 0.05, 0.02, 1, "Roughness of the clear coat."),
+      num("clear_coat_ior", "", 1.5, 1.0, 3.0, "Index of refraction of the clear coat.", true, true),
+      micro};
+  mat.variant_docs["car_paint"] = "Clear coat over a base coat of colour and metallic flakes.";
+  mat.variants["metal"] = {enumeration("metal", metalNames(), "steel",
+                                       "Bare metal, by name; complex IOR per RGB channel (see docs/materials.md).",
+                                       true),
+                           num("roughness", "", 0.2, 0.02, 1, "Surface roughness."), micro};
+  mat.variant_docs["metal"] = "Bare conductor with the exact Fresnel equations for its complex IOR.";
+  mat.variants["plastic"] = {rgb("base_color", {0.05, 0.05, 0.05}, 1, "Diffuse colour."),
+                             num("roughness", "", 0.4, 0.02, 1, "Surface roughness."),
+                             num("ior", "", 1.5, 1.0, 3.0, "Index of refraction.", true, true), micro};
+  mat.variant_docs["plastic"] = "Dielectric gloss over a diffuse base.";
+  root.fields.push_back(mat);
+
+  // lights
+  Field light;
+  light.key = "lights";
+  light.type = FieldType::List;
+  light.required = true;
+  light.doc = "Light sources; at least one. Radiance is in relative units (1 = a white dome that "
+              "makes a white diffuse surface render white).";
+  Field radiance = rgb("radiance", {1, 1, 1}, 1e6, "Emitted radiance.");
+  Field target = vec("target", 3, "mm", {0, 0, 0}, -1e5, 1e5, "Point the light faces.");
+  light.variants["environment"] = {
+      radiance, path("map", "Latitude-longitude HDR/EXR map (any format OpenImageIO reads); "
+                     "replaces `radiance` when given.", false),
+      num("scale", "", 1, 0, 1e6, "Multiplier on the map."),
+      num("rotation_deg", "deg", 0, -360, 360, "Rotation of the map about +z.")};
+  light.variant_docs["environment"] = "Light from every direction: constant radiance or an HDR map (+z up).";
+  light.variants["dome"] = {radiance};
+  light.variant_docs["dome"] = "Diffuse dome: uniform radiance from every direction (bright, shadowless).";
+  light.variants["rect"] = {vec("position", 3, "mm", nullptr, -1e5, 1e5, "Centre of the rectangle."),
+                            target, vec("size_mm", 2, "mm", nullptr, 0.1, 1e5,
+                                "[along u, along v]: u is world +x projected into the light's plane "
+                                "(+y if the light faces along x), v completes the frame."),
+                            radiance};
+  light.variant_docs["rect"] = "One-sided rectangular area light facing `target`.";
+  light.variants["disk"] = {vec("position", 3, "mm", nullptr, -1e5, 1e5, "Centre of the disk."), target,
+                            num("radius_mm", "mm", 100, 0.1, 1e5, "Radius."), radiance};
+  light.variant_docs["disk"] = "One-sided disk area light facing `target`.";
+  light.variants["ring"] = {num("radius_mm", "mm", 60, 1, 1e4, "Outer radius of the ring."),
+                            num("inner_radius_mm", "mm", 45, 0, 1e4, "Inner radius."),
+                            rgb("radiance", {20, 20, 20}, 1e6, "Emitted radiance.")};
+  light.variant_docs["ring"] = "Ring light around the lens: an annulus in the camera's plane facing "
+                               "along the optical axis.";
+  light.variants["bar"] = {num("length_mm", "mm", 600, 1, 1e5, "Length of the bar."),
+                           num("width_mm", "mm", 30, 1, 1e4, "Width of the emitting face."),
+                           num("distance_mm", "mm", 700, 10, 1e5, "Distance from `target`."),
+                           num("elevation_deg", "deg", 10, 0.5, 89.5, "Angle above the part's plane (low = dark field)."),
+                           num("azimuth_deg", "deg", 0, -360, 360, "Direction around +z, from +x."),
+                           target, rgb("radiance", {30, 30, 30}, 1e6, "Emitted radiance.")};
+  light.variant_docs["bar"] = "Low-angle bar light (dark field): a long rectangle at a grazing "
+                              "elevation facing `target`; scratches and dents catch its light.";
+  light.variants["coaxial"] = {num("radius_mm", "mm", 80, 1, 1e4, "Radius of the emitting disk."),
+                               rgb("radiance", {2, 2, 2}, 1e6, "Emitted radiance.")};
+  light.variant_docs["coaxial"] = "Coaxial light (bright field): a disk at the camera, facing along "
+                                  "the optical axis, seen by the camera only in reflections.";
+  root.fields.push_back(light);
+
+  // camera
+  Field cam;
+  cam.key = "camera";
+  cam.type = FieldType::Object;
+  cam.required = true;
+  cam.doc = "Pinhole camera with OpenCV's model (x right, y down, z forward). Give exactly one of "
+            "`fov_deg`, `intrinsics` or `calibration`.";
+  cam.fields = {
+      num("fov_deg", "deg", nullptr, 1, 170, "Horizontal field of view; principal point at the centre."),
+      vec("intrinsics", 4, "px", nullptr, -1e7, 1e7, "[fx, fy, cx, cy] at the render resolution."),
+      path("calibration", "cv::FileStorage file (camera_matrix, distortion_coefficients, image_width, "
+                          "image_height); K is scaled to the render resolution.", false),
+      vec("distortion", 5, "", {0, 0, 0, 0, 0}, -10, 10, "[k1, k2, p1, p2, k3] (ignored with `calibration`)."),
+      vec("position", 3, "mm", nullptr, -1e5, 1e5, "Camera centre."),
+      vec("target", 3, "mm", {0, 0, 0}, -1e5, 1e5, "Point the optical axis passes through."),
+      vec("up", 3, "", {0, 1, 0}, -1, 1, "World direction that appears up in the image.")};
+  cam.fields[0].required = false;
+  cam.fields[1].required = false;
+  cam.fields[4].required = true;
+  root.fields.push_back(cam);
+
+  // render
+  Field ren;
+  ren.key = "render";
+  ren.type = FieldType::Object;
+  ren.default_value = json::object();
+  ren.doc = "Image size, sampling and which outputs are written. Nothing that is not asked for is computed.";
+  ren.fields = {
+      vec("resolution", 2, "px", {512, 512}, 8, 16384, "[width, height].", false, FieldType::Integer),
+      integer("spp", "samples/pixel", 16, 1, 65536, "Path samples per pixel."),
+      integer("max_bounces", "", 4, 1, 64, "Maximum path length in surface bounces."),
+      num("exposure_stops", "EV", 0, -20, 20, "Exposure applied before the sRGB curve (PNG only)."),
+      enumeration("png", {"8", "16", "none"}, "8", "PNG bit depth, or none."),
+      flag("exr", false, "Write images/NNNNNN.exr: linear RGB plus the requested AOVs as layers."),
+      flag("depth", false, "Depth AOV (camera z in mm) in the EXR."),
+      flag("normals", false, "World shading-normal AOV (after bump) in the EXR."),
+      flag("masks", true, "Semantic and instance masks and COCO annotations."),
+      integer("mask_subsamples", "per axis", 4, 1, 16,
+              "The pixel footprint is sampled on an n x n grid to measure defect coverage.")};
+  root.fields.push_back(ren);
+
+  // defects
+  Field def;
+  def.key = "defects";
+  def.type = FieldType::List;
+  def.default_value = json::array();
+  def.doc = "Defect groups. Each group places `count` defects of one type at random UV positions.";
+  def.variants["dent"] = {
+      integer("count", "", 1, 0, 1000, "Number of dents in the group.", true),
+      num("radius_mm", "mm", 15, 0.5, 500, "Radius of the dent."),
+      num("depth_mm", "mm", 0.5, 0, 50, "Depth at the centre (0 leaves the surface unchanged)."),
+      num("mask_threshold", "fraction", 0.1, 0.0, 0.99,
+          "Labelled where the depth is at least this fraction of the centre depth.", false, true),
+      vec("region", 4, "fraction", {0, 0, 1, 1}, 0, 1,
+          "[u0, v0, u1, v1]: where centres may fall, as fractions of the part's UV extent.", false)};
+  def.variant_docs["dent"] = "Round dent, rendered by bump mapping (Blinn 1978) with a C1 "
+                             "polynomial bowl profile.";
+  root.fields.push_back(def);
+  return root;
+}
+
+}  // namespace
+
+const Field& configSchema() {
+  static const Field schema = buildSchema();
+  return schema;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Parsing and validation
+// ---------------------------------------------------------------------------------------------
+
+size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j)
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+namespace {
+
+std::string closest(const std::string& key, const std::vector<std::string>& options) {
+  std::string best;
+  size_t bd = std::string::npos;
+  for (auto& o : options) {
+    size_t d = editDistance(key, o);
+    if (d < bd) {
+      bd = d;
+      best = o;
+    }
+  }
+  if (bd <= std::max<size_t>(2, key.size() / 3)) return best;
+  return "";
+}
+
+std::string joinList(const std::vector<std::string>& v) {
+  std::string s;
+  for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + v[i];
+  return s;
+}
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s << std::setprecision(10) << v;
+  return s.str();
+}
+
+class Parser {
+ public:
+  Parser(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void fail(const YAML::Node& n, const std::string& msg) const {
+    if (n.IsDefined() && n.Mark().line >= 0) throw InputError(file_, n.Mark().line + 1, n.Mark().column + 1, msg);
+    throw InputError(file_, msg);
+  }
+  [[noreturn]] void failAt(int line, int col, const std::string& msg) const {
+    throw InputError(file_, line, col, msg);
+  }
+
+  static std::string where(const std::string& path) { return path.empty() ? "the top level" : "'" + path + "'"; }
+
+  double toNumber(const YAML::Node& n, const std::string& path, bool integer) const {
+    if (!n.IsScalar()) fail(n, where(path) + ": expected a number" + std::string(integer ? " (integer)" : ""));
+    const std::string& s = n.Scalar();
+    char* end = nullptr;
+    double v = std::strtod(s.c_str(), &end);
+    if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v))
+      fail(n, where(path) + ": expected a number, got '" + s + "'");
+    if (integer && v != std::floor(v)) fail(n, where(path) + ": expected an integer, got " + s);
+    return v;
+  }
+
+  void checkRange(const YAML::Node& n, const Field& f, const std::string& path, double v) const {
+    bool lo_bad = f.min && (f.min_exclusive ? !(v > *f.min) : !(v >= *f.min));
+    bool hi_bad = f.max && !(v <= *f.max);
+    if (lo_bad || hi_bad) {
+      std::string range = std::string(f.min_exclusive ? "(" : "[") + (f.min ? fmt(*f.min) : "-inf") + ", " +
+                          (f.max ? fmt(*f.max) : "inf") + "]";
+      fail(n, where(path) + ": " + fmt(v) + " is out of range; expected a value in " + range +
+                  (f.unit.empty() ? "" : " " + f.unit));
+    }
+  }
+
+  // A scalar number, or a distribution over numbers.
+  Dist numberOrDist(const YAML::Node& n, const Field& f, const std::string& path, bool integer) const {
+    Dist d;
+    if (n.IsMap()) {
+      if (!f.random_ok)
+        fail(n, where(path) + ": must be a constant here, not a distribution" +
+                    (f.key == "tessellation_mm" || path.rfind("part.", 0) == 0
+                         ? " (the part is fixed for a dataset so that its BVH is built once)"
+                         : ""));
+      std::vector<std::string> kinds = {"uniform", "loguniform", "normal", "choice"};
+      std::string kind;
+      for (auto it = n.begin(); it != n.end(); ++it) {
+        std::string k = it->first.Scalar();
+        if (k == "weights") continue;
+        if (std::find(kinds.begin(), kinds.end(), k) == kinds.end()) {
+          std::string s = closest(k, kinds);
+          fail(it->first, where(path) + ": unknown distribution '" + k + "'" +
+                              (s.empty() ? "" : "; did you mean '" + s + "'?") + " Expected one of: " +
+                              joinList(kinds));
+        }
+        if (!kind.empty()) fail(it->first, where(path) + ": a distribution has exactly one kind");
+        kind = k;
+      }
+      if (kind.empty()) fail(n, where(path) + ": empty distribution; expected one of " + joinList(kinds));
+      const YAML::Node& a = n[kind];
+      if (kind == "uniform" || kind == "loguniform") {
+        if (!a.IsSequence() || a.size() != 2) fail(a, where(path) + ": " + kind + " expects [min, max]");
+        d.kind = kind == "uniform" ? Dist::Kind::Uniform : Dist::Kind::LogUniform;
+        d.a = toNumber(a[0], path, integer);
+        d.b = toNumber(a[1], path, integer);
+        if (!(d.a <= d.b)) fail(a, where(path) + ": " + kind + " needs min <= max");
+        if (d.kind == Dist::Kind::LogUniform && !(d.a > 0)) fail(a, where(path) + ": loguniform needs min > 0");
+        checkRange(a[0], f, path, d.a);
+        checkRange(a[1], f, path, d.b);
+      } else if (kind == "normal") {
+        if (!a.IsMap()) fail(a, where(path) + ": normal expects {mean: m, std: s, min: lo, max: hi}");
+        for (auto it = a.begin(); it != a.end(); ++it) {
+          std::string k = it->first.Scalar();
+          if (k != "mean" && k != "std" && k != "min" && k != "max") {
+            std::string s = closest(k, {"mean", "std", "min", "max"});
+            fail(it->first, where(path) + ": unknown key '" + k + "' in normal" +
+                                (s.empty() ? "" : "; did you mean '" + s + "'?"));
+          }
+        }
+        if (!a["mean"] || !a["std"]) fail(a, where(path) + ": normal needs 'mean' and 'std'");
+        d.kind = Dist::Kind::Normal;
+        d.a = toNumber(a["mean"], path, false);
+        d.b = toNumber(a["std"], path, false);
+        if (!(d.b >= 0)) fail(a["std"], where(path) + ": std must be >= 0");
+        // Samples are clamped to [min, max]; without them, to the field's documented range.
+        d.lo = a["min"] ? toNumber(a["min"], path, false) : (f.min ? *f.min : -1e300);
+        d.hi = a["max"] ? toNumber(a["max"], path, false) : (f.max ? *f.max : 1e300);
+        if (a["min"]) checkRange(a["min"], f, path, d.lo);
+        if (a["max"]) checkRange(a["max"], f, path, d.hi);
+        if (!(d.lo <= d.hi)) fail(a, where(path) + ": normal needs min <= max");
+        if (f.min_exclusive && f.min && d.lo <= *f.min)
+          fail(a, where(path) + ": give normal a 'min' above " + fmt(*f.min));
+      } else {  // choice
+        if (!a.IsSequence() || a.size() == 0) fail(a, where(path) + ": choice expects a non-empty list");
+        d.kind = Dist::Kind::Choice;
+        for (size_t i = 0; i < a.size(); ++i) {
+          double v = toNumber(a[i], path, integer);
+          checkRange(a[i], f, path, v);
+          d.choices.push_back(v);
+        }
+        weights(n, d, path);
+      }
+      return d;
+    }
+    double v = toNumber(n, path, integer);
+    checkRange(n, f, path, v);
+    d.constant = integer ? json(int64_t(v)) : json(v);
+    return d;
+  }
+
+  void weights(const YAML::Node& n, Dist& d, const std::string& path) const {
+    if (!n["weights"]) {
+      d.weights.assign(d.choices.size(), 1.0);
+      return;
+    }
+    const YAML::Node& w = n["weights"];
+    if (!w.IsSequence() || w.size() != d.choices.size())
+      fail(w, where(path) + ": weights must be a list as long as the choices (" +
+                  std::to_string(d.choices.size()) + ")");
+    double sum = 0;
+    for (size_t i = 0; i < w.size(); ++i) {
+      double x = toNumber(w[i], path + ".weights", false);
+      if (x < 0) fail(w[i], where(path) + ": weights must be >= 0");
+      d.weights.push_back(x);
+      sum += x;
+    }
+    if (!(sum > 0)) fail(w, where(path) + ": weights must not all be 0");
+  }
+
+  Dist enumOrChoice(const YAML::Node& n, const Field& f, const std::string& path) const {
+    auto check = [&](const YAML::Node& s) {
+      if (!s.IsScalar()) fail(s, where(path) + ": expected one of: " + joinList(f.enum_values));
+      std::string v = s.Scalar();
+      if (std::find(f.enum_values.begin(), f.enum_values.end(), v) == f.enum_values.end()) {
+        std::string c = closest(v, f.enum_values);
+        fail(s, where(path) + ": '" + v + "' is not valid" + (c.empty() ? "" : "; did you mean '" + c + "'?") +
+                    " Expected one of: " + joinList(f.enum_values));
+      }
+      return v;
+    };
+    Dist d;
+    if (n.IsMap()) {
+      if (!f.random_ok) fail(n, where(path) + ": must be a constant here, not a distribution");
+      if (!n["choice"]) fail(n, where(path) + ": the only distribution for a name is {choice: [...], weights: [...]}");
+      const YAML::Node& a = n["choice"];
+      if (!a.IsSequence() || a.size() == 0) fail(a, where(path) + ": choice expects a non-empty list");
+      d.kind = Dist::Kind::Choice;
+      for (size_t i = 0; i < a.size(); ++i) d.choices.push_back(check(a[i]));
+      weights(n, d, path);
+      return d;
+    }
+    d.constant = check(n);
+    return d;
+  }
+
+  Value parseScalar(const YAML::Node& n, const Field& f, const std::string& path) const {
+    Value v;
+    v.field = &f;
+    v.path = path;
+    v.line = n.Mark().line + 1;
+    v.column = n.Mark().column + 1;
+    switch (f.type) {
+      case FieldType::Number:
+        v.dist = numberOrDist(n, f, path, false);
+        break;
+      case FieldType::Integer:
+        v.dist = numberOrDist(n, f, path, true);
+        break;
+      case FieldType::Bool: {
+        bool b;
+        if (!n.IsScalar() || !YAML::convert<bool>::decode(n, b))
+          fail(n, where(path) + ": expected true or false");
+        v.dist.constant = b;
+        break;
+      }
+      case FieldType::String:
+      case FieldType::Path:
+        if (!n.IsScalar() || n.Scalar().empty()) fail(n, where(path) + ": expected a " +
+                                                                (f.type == FieldType::Path ? "file path" : "string"));
+        v.dist.constant = n.Scalar();
+        if (f.type == FieldType::Path) {
+          std::filesystem::path p(n.Scalar());
+          if (p.is_relative()) p = std::filesystem::path(file_).parent_path() / p;
+          if (!std::filesystem::is_regular_file(p))
+            fail(n, where(path) + ": file not found: " + p.string());
+          v.dist.constant = p.lexically_normal().string();
+        }
+        break;
+      case FieldType::Enum:
+        v.dist = enumOrChoice(n, f, path);
+        break;
+      case FieldType::Vector: {
+        if (!n.IsSequence() || int(n.size()) != f.vector_size)
+          fail(n, where(path) + ": expected a list of " + std::to_string(f.vector_size) + " numbers" +
+                      (f.unit.empty() ? "" : " (" + f.unit + ")"));
+        Field ef = f;
+        ef.type = f.element_type;
+        for (int i = 0; i < f.vector_size; ++i) {
+          Value e;
+          e.field = &f;
+          e.path = path + "[" + std::to_string(i) + "]";
+          e.line = n[i].Mark().line + 1;
+          e.column = n[i].Mark().column + 1;
+          e.dist = numberOrDist(n[i], ef, e.path, f.element_type == FieldType::Integer);
+          v.items.push_back(std::move(e));
+        }
+        break;
+      }
+      default:
+        break;
+    }
+    return v;
+  }
+
+  Value defaultValue(const Field& f, const std::string& path, int line, int col) const {
+    // Defaults are given in the schema as JSON; parse them through YAML so they take the same path.
+    YAML::Node n = YAML::Load(f.default_value.dump());
+    Value v = parse(n, f, path);
+    auto mark = [&](Value& x, auto& self) -> void {
+      x.defaulted = true;
+      x.line = line;
+      x.column = col;
+      for (auto& i : x.items) self(i, self);
+      for (auto& m : x.members) self(m.second, self);
+    };
+    mark(v, mark);
+    return v;
+  }
+
+  Value parseObject(const YAML::Node& n, const Field& f, const std::string& path) const {
+    if (!n.IsMap()) fail(n, where(path) + ": expected a mapping of keys to values");
+    Value v;
+    v.field = &f;
+    v.path = path;
+    v.line = n.Mark().line + 1;
+    v.column = n.Mark().column + 1;
+    std::vector<const Field*> fields;
+    for (auto& c : f.fields) fields.push_back(&c);
+    if (!f.variants.empty()) {
+      std::vector<std::string> types;
+      for (auto& kv : f.variants) types.push_back(kv.first);
+      const YAML::Node& t = n["type"];
+      if (!t) fail(n, where(path) + ": missing 'type'; expected one of: " + joinList(types));
+      if (!t.IsScalar() || !f.variants.count(t.Scalar())) {
+        std::string c = t.IsScalar() ? closest(t.Scalar(), types) : "";
+        fail(t, where(path + ".type") + ": '" + (t.IsScalar() ? t.Scalar() : std::string("?")) +
+                    "' is not a known type" + (c.empty() ? "" : "; did you mean '" + c + "'?") +
+                    " Expected one of: " + joinList(types));
+      }
+      static const Field type_field = [] {
+        Field tf;
+        tf.key = "type";
+        tf.type = FieldType::String;
+        return tf;
+      }();
+      Value tv;
+      tv.field = &type_field;
+      tv.path = path + ".type";
+      tv.dist.constant = t.Scalar();
+      tv.line = t.Mark().line + 1;
+      tv.column = t.Mark().column + 1;
+      v.members["type"] = tv;
+      v.member_order.push_back("type");
+      for (auto& c : f.variants.at(t.Scalar())) fields.push_back(&c);
+    }
+    std::vector<std::string> keys;
+    for (auto* c : fields) keys.push_back(c->key);
+    if (!f.variants.empty()) keys.push_back("type");
+    for (auto it = n.begin(); it != n.end(); ++it) {
+      if (!it->first.IsScalar()) fail(it->first, where(path) + ": keys must be plain names");
+      std::string k = it->first.Scalar();
+      if (std::find(keys.begin(), keys.end(), k) == keys.end()) {
+        std::string c = closest(k, keys);
+        fail(it->first, "unknown key '" + k + "' in " + where(path) +
+                            (c.empty() ? "" : "; did you mean '" + c + "'?") + " Valid keys: " + joinList(keys));
+      }
+    }
+    for (auto* c : fields) {
+      std::string p = path.empty() ? c->key : path + "." + c->key;
+      const YAML::Node& m = n[c->key];
+      if (m && !m.IsNull()) {
+        v.members[c->key] = parse(m, *c, p);
+      } else if (!c->default_value.is_null()) {
+        v.members[c->key] = defaultValue(*c, p, v.line, v.column);
+      } else if (c->required) {
+        fail(n, where(path) + ": missing required key '" + c->key + "' (" + c->doc + ")");
+      } else {
+        continue;
+      }
+      v.member_order.push_back(c->key);
+    }
+    return v;
+  }
+
+  Value parse(const YAML::Node& n, const Field& f, const std::string& path) const {
+    if (f.type == FieldType::Object) return parseObject(n, f, path);
+    if (f.type == FieldType::List) {
+      if (!n.IsSequence()) fail(n, where(path) + ": expected a list");
+      Value v;
+      v.field = &f;
+      v.path = path;
+      v.line = n.Mark().line + 1;
+      v.column = n.Mark().column + 1;
+      for (size_t i = 0; i < n.size(); ++i)
+        v.items.push_back(parseObject(n[i], f, path + "[" + std::to_string(i) + "]"));
+      return v;
+    }
+    return parseScalar(n, f, path);
+  }
+
+  std::string file_;
+};
+
+// Rules that involve several fields.
+void crossChecks(const Value& root, const Parser& p) {
+  const Value& cam = root["camera"];
+  int given = int(cam.has("fov_deg")) + int(cam.has("intrinsics")) + int(cam.has("calibration"));
+  if (given != 1)
+    p.failAt(cam.line, cam.column,
+             "'camera': give exactly one of 'fov_deg', 'intrinsics' or 'calibration' (found " +
+                 std::to_string(given) + ")");
+  if (root["lights"].items.empty())
+    p.failAt(root["lights"].line, root["lights"].column, "'lights': at least one light is needed");
+  int envs = 0;
+  for (const Value& l : root["lights"].items) {
+    std::string t = l["type"].str();
+    if ((t == "environment" || t == "dome") && ++envs > 1)
+      p.failAt(l.line, l.column, "'" + l.path + "': only one environment or dome light per config");
+    if (l["type"].str() == "ring" && l["inner_radius_mm"].isConstant() && l["radius_mm"].isConstant() &&
+        !(l["inner_radius_mm"].num() < l["radius_mm"].num()))
+      p.failAt(l["inner_radius_mm"].line, l["inner_radius_mm"].column,
+               "'" + l.path + ".inner_radius_mm' must be smaller than radius_mm");
+  }
+  for (const Value& d : root["defects"].items) {
+    const Value& r = d["region"];
+    if (!(r.items[0].num() < r.items[2].num() && r.items[1].num() < r.items[3].num()))
+      p.failAt(r.line, r.column, "'" + r.path + "': expected [u0, v0, u1, v1] with u0 < u1 and v0 < v1");
+  }
+}
+
+}  // namespace
+
+const Value& Value::operator[](const std::string& k) const {
+  auto it = members.find(k);
+  if (it == members.end()) throw std::logic_error("config: no member '" + k + "' in '" + path + "'");
+  return it->second;
+}
+
+double Value::num() const {
+  if (dist.kind != Dist::Kind::Const) throw std::logic_error("config: '" + path + "' is a distribution");
+  return dist.constant.get<double>();
+}
+std::string Value::str() const {
+  if (dist.kind != Dist::Kind::Const) throw std::logic_error("config: '" + path + "' is a distribution");
+  return dist.constant.is_string() ? dist.constant.get<std::string>() : dist.constant.dump();
+}
+bool Value::flag() const { return dist.constant.get<bool>(); }
+
+Config parseConfig(const std::string& text, const std::string& file) {
+  Parser p(file);
+  YAML::Node doc;
+  try {
+    doc = YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    throw InputError(file, e.mark.line + 1, e.mark.column + 1, "malformed YAML: " + e.msg);
+  }
+  if (!doc.IsMap()) throw InputError(file, 1, 1, "expected a YAML mapping at the top level (part, camera, lights, ...)");
+  Config c;
+  c.file = file;
+  c.text = text;
+  c.root = p.parse(doc, configSchema(), "");
+  crossChecks(c.root, p);
+  return c;
+}
+
+Config loadConfig(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) throw InputError(path, "config file not found");
+  return parseConfig(readTextFile(path), path);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sampling
+// ---------------------------------------------------------------------------------------------
+
+json sampleValue(const Value& v, Rng& rng, json& record) {
+  const Dist& d = v.dist;
+  json out;
+  bool integer = v.field && (v.field->type == FieldType::Integer ||
+                             (v.field->type == FieldType::Vector && v.field->element_type == FieldType::Integer));
+  switch (d.kind) {
+    case Dist::Kind::Const:
+      return d.constant;
+    case Dist::Kind::Uniform: {
+      double u = rng.uniformD();
+      if (integer) {
+        double x = std::floor(d.a + u * (d.b - d.a + 1));
+        out = int64_t(std::min(x, d.b));
+      } else {
+        out = d.a + u * (d.b - d.a);
+      }
+      break;
+    }
+    case Dist::Kind::LogUniform: {
+      double x = std::exp(std::log(d.a) + rng.uniformD() * (std::log(d.b) - std::log(d.a)));
+      out = integer ? json(int64_t(std::llround(x))) : json(x);
+      break;
+    }
+    case Dist::Kind::Normal: {
+      // Box-Muller with two draws from the counter-based stream.
+      double u1 = std::max(rng.uniformD(), 1e-300), u2 = rng.uniformD();
+      double z = std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
+      double x = std::clamp(d.a + d.b * z, d.lo, d.hi);
+      out = integer ? json(int64_t(std::llround(x))) : json(x);
+      break;
+    }
+    case Dist::Kind::Choice: {
+      double total = 0;
+      for (double w : d.weights) total += w;
+      double u = rng.uniformD() * total;
+      size_t i = 0;
+      for (; i + 1 < d.choices.size(); ++i) {
+        if (u < d.weights[i]) break;
+        u -= d.weights[i];
+      }
+      out = d.choices[i];
+      if (integer && out.is_number()) out = int64_t(out.get<double>());
+      break;
+    }
+  }
+  record[v.path] = out;
+  return out;
+}
+
+double sampleNumber(const Value& v, Rng& rng, json& record) { return sampleValue(v, rng, record).get<double>(); }
+
+// ---------------------------------------------------------------------------------------------
+// Descriptions
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+std::string distText(const Value& v) {
+  const Dist& d = v.dist;
+  auto n = [](double x) { return fmt(x); };
+  switch (d.kind) {
+    case Dist::Kind::Const:
+      return d.constant.is_string() ? d.constant.get<std::string>() : d.constant.dump();
+    case Dist::Kind::Uniform:
+      return "{uniform: [" + n(d.a) + ", " + n(d.b) + "]}";
+    case Dist::Kind::LogUniform:
+      return "{loguniform: [" + n(d.a) + ", " + n(d.b) + "]}";
+    case Dist::Kind::Normal:
+      return "{normal: {mean: " + n(d.a) + ", std: " + n(d.b) + ", min: " + n(d.lo) + ", max: " + n(d.hi) + "}}";
+    case Dist::Kind::Choice: {
+      std::string s = "{choice: [";
+      for (size_t i = 0; i < d.choices.size(); ++i)
+        s += (i ? ", " : "") + (d.choices[i].is_string() ? d.choices[i].get<std::string>() : d.choices[i].dump());
+      s += "], weights: [";
+      for (size_t i = 0; i < d.weights.size(); ++i) s += (i ? ", " : "") + n(d.weights[i]);
+      return s + "]}";
+    }
+  }
+  return "";
+}
+
+void describe(const Value& v, int indent, std::ostringstream& o) {
+  std::string pad(size_t(indent) * 2, ' ');
+  for (const std::string& k : v.member_order) {
+    const Value& m = v.members.at(k);
+    const Field* f = m.field;
+    if (f && f->type == FieldType::Object) {
+      o << pad << k << ":" << (m.defaulted ? "  # default" : "") << "\n";
+      describe(m, indent + 1, o);
+      continue;
+    }
+    if (f && f->type == FieldType::List) {
+      o << pad << k << ":" << (m.items.empty() ? " []" : "") << (m.defaulted ? "  # default" : "") << "\n";
+      for (const Value& it : m.items) {
+        o << pad << "  -\n";
+        describe(it, indent + 2, o);
+      }
+      continue;
+    }
+    std::string val;
+    if (f && f->type == FieldType::Vector) {
+      val = "[";
+      for (size_t i = 0; i < m.items.size(); ++i) val += (i ? ", " : "") + distText(m.items[i]);
+      val += "]";
+    } else {
+      val = distText(m);
+    }
+    std::string line = pad + k + ": " + val;
+    std::string note;
+    if (f && !f->unit.empty()) note += f->unit;
+    if (m.defaulted) note += std::string(note.empty() ? "" : ", ") + "default";
+    if (!note.empty()) line += std::string(line.size() < 48 ? 48 - line.size() : 1, ' ') + "# " + note;
+    o << line << "\n";
+  }
+}
+
+std::string rangeText(const Field& f) {
+  if (f.type == FieldType::Enum) return joinList(f.enum_values);
+  if (f.type == FieldType::Bool) return "true, false";
+  if (!f.min && !f.max) return "";
+  return std::string(f.min_exclusive ? "(" : "[") + fmt(*f.min) + ", " + fmt(*f.max) + "]";
+}
+
+std::string typeText(const Field& f) {
+  switch (f.type) {
+    case FieldType::Number: return "number";
+    case FieldType::Integer: return "integer";
+    case FieldType::Bool: return "bool";
+    case FieldType::String: return "string";
+    case FieldType::Enum: return "name";
+    case FieldType::Path: return "file path";
+    case FieldType::Vector:
+      return "list of " + std::to_string(f.vector_size) +
+             (f.element_type == FieldType::Integer ? " integers" : " numbers");
+    case FieldType::Object: return "mapping";
+    case FieldType::List: return "list";
+  }
+  return "";
+}
+
+void fieldTable(const std::vector<Field>& fields, const std::string& prefix, std::ostringstream& o) {
+  o << "| key | type | unit | default | range | random | meaning |\n|---|---|---|---|---|---|---|\n";
+  for (const Field& f : fields) {
+    if (f.type == FieldType::Object || f.type == FieldType::List) continue;
+    std::string def = f.default_value.is_null() ? (f.required ? "required" : "—") : f.default_value.dump();
+    if (f.default_value.is_string()) def = f.default_value.get<std::string>();
+    o << "| `" << prefix << f.key << "` | " << typeText(f) << " | " << (f.unit.empty() ? "" : f.unit) << " | "
+      << def << " | " << rangeText(f) << " | " << (f.random_ok ? "yes" : "no") << " | " << f.doc << " |\n";
+  }
+  o << "\n";
+}
+
+void sectionDoc(const Field& f, std::ostringstream& o) {
+  o << "## `" << f.key << "`" << (f.type == FieldType::List ? " (list)" : "") << "\n\n" << f.doc << "\n\n";
+  if (f.required) o << "Required.\n\n";
+  if (!f.fields.empty()) fieldTable(f.fields, "", o);
+  for (auto& kv : f.variants) {
+    o << "### `" << f.key << "` of `type: " << kv.first << "`\n\n";
+    auto d = f.variant_docs.find(kv.first);
+    if (d != f.variant_docs.end()) o << d->second << "\n\n";
+    fieldTable(kv.second, "", o);
+  }
+}
+
+}  // namespace
+
+std::string describeConfig(const Config& c) {
+  std::ostringstream o;
+  o << "# resolved config of " << c.file << " (hash " << c.hash() << ")\n";
+  describe(c.root, 0, o);
+  return o.str();
+}
+
+std::string Config::hash() const {
+  // FNV-1a 64 over the resolved description (not the raw bytes, so comments and key order do not
+  // matter but every value, including defaults, does).
+  std::ostringstream o;
+  describe(root, 0, o);
+  std::string s = o.str();
+  uint64_t h = 0xcbf29ce484222325ull;
+  for (unsigned char ch : s) {
+    h ^= ch;
+    h *= 0x100000001b3ull;
+  }
+  std::ostringstream hx;
+  hx << std::hex << std::setw(16) << std::setfill('0') << h;
+  return hx.str();
+}
+
+std::string configReferenceMarkdown() {
+  std::ostringstream o;
+  o << "# Config reference\n\n"
+       "<!-- Generated by `defectgen config-reference`; tests/generator checks it is up to date. -->\n\n"
+       "A config is a YAML file. Units are part of the key names (`_mm`, `_deg`); angles are degrees, "
+       "lengths millimetres, colours linear Rec.709 RGB. `defectgen validate CONFIG` prints the "
+       "resolved config with every default and unit.\n\n"
+       "Any field marked *random: yes* may be a distribution instead of a constant, sampled anew for "
+       "every image; each sampled value is recorded in `samples/NNNNNN.json` under its config path:\n\n"
+       "| form | meaning |\n|---|---|\n"
+       "| `{uniform: [a, b]}` | uniform in [a, b] (integers: each of a..b equally likely) |\n"
+       "| `{loguniform: [a, b]}` | log-uniform in [a, b], a > 0 |\n"
+       "| `{normal: {mean: m, std: s, min: lo, max: hi}}` | normal, clamped to [lo, hi] (default: the field's range) |\n"
+       "| `{choice: [x, y, z], weights: [1, 2, 1]}` | one of the values, with the given weights (default equal) |\n\n"
+       "Elements of a list of numbers (positions, colours) may each be a distribution.\n\n"
+       "Errors name the file, line and column, and what was expected; unknown keys get the closest "
+       "valid key as a suggestion.\n\n";
+  const Field& r = configSchema();
+  o << "## Top level\n\n";
+  fieldTable(r.fields, "", o);
+  for (const Field& f : r.fields)
+    if (f.type == FieldType::Object || f.type == FieldType::List) sectionDoc(f, o);
+  return o.str();
+}
+
+}  // namespace dg

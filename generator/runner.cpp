@@ -1,0 +1,249 @@
+#include "generator/runner.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/fsutil.h"
+#include "core/parallel.h"
+#include "generator/scene_builder.h"
+#include "labels/coco.h"
+#include "labels/image_io.h"
+
+namespace dg {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+std::string idName(uint64_t i) {
+  std::ostringstream s;
+  s << std::setw(6) << std::setfill('0') << i;
+  return s.str();
+}
+
+double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// CLI overrides are applied to the validated config, so that the config hash covers them.
+void applyOverrides(Config& c, const GenerateOptions& o) {
+  if (o.count) c.root.members.at("count").dist.constant = *o.count;
+  if (o.seed) c.root.members.at("seed").dist.constant = *o.seed;
+  Value& r = c.root.members.at("render");
+  if (o.spp) r.members.at("spp").dist.constant = *o.spp;
+  if (o.scale) {
+    for (auto& it : r.members.at("resolution").items)
+      it.dist.constant = int64_t(std::max(8.0, std::round(it.num() * *o.scale)));
+    Value& cam = c.root.members.at("camera");
+    if (cam.has("intrinsics"))
+      for (auto& it : cam.members.at("intrinsics").items) {
+        if (it.isConstant()) it.dist.constant = it.num() * *o.scale;
+        else if (it.dist.kind == Dist::Kind::Choice) for (auto& ch : it.dist.choices) ch = ch.get<double>() * *o.scale;
+        else { it.dist.a *= *o.scale; it.dist.b *= it.dist.kind == Dist::Kind::Normal ? *o.scale : *o.scale;
+               it.dist.lo *= *o.scale; it.dist.hi *= *o.scale; }
+      }
+  }
+}
+
+class Progress {
+ public:
+  Progress(int total, bool quiet) : total_(total), quiet_(quiet), tty_(::isatty(2)), start_(Clock::now()) {}
+  void done(uint64_t index, double secs) {
+    ++n_;
+    if (quiet_) return;
+    double el = secondsSince(start_);
+    double eta = n_ > 0 ? el / n_ * (total_ - n_) : 0;
+    if (tty_) {
+      int width = 30, fill = total_ ? int(width * n_ / total_) : width;
+      std::fprintf(stderr, "\r[%s%s] %d/%d  %.1fs elapsed  ETA %.1fs ", std::string(size_t(fill), '#').c_str(),
+                   std::string(size_t(width - fill), '.').c_str(), n_, total_, el, eta);
+      if (n_ == total_) std::fprintf(stderr, "\n");
+    } else {
+      std::fprintf(stderr, "defectgen: sample %s done in %.2fs (%d/%d, ETA %.0fs)\n", idName(index).c_str(), secs,
+                   n_, total_, eta);
+    }
+    std::fflush(stderr);
+  }
+
+ private:
+  int total_, n_ = 0;
+  bool quiet_, tty_;
+  Clock::time_point start_;
+};
+
+void writeSampleFiles(const fs::path& out, const Config& cfg, const Sample& s, const RenderFrame& f,
+                      json& timings) {
+  const Value& r = cfg.root["render"];
+  std::string id = idName(s.index);
+  auto t0 = Clock::now();
+  std::string png = r["png"].str();
+  if (png != "none") {
+    ImageF img = f.rgb;
+    float gain = std::exp2(float(r["exposure_stops"].num()));
+    if (gain != 1.0f)
+      for (float& v : img.data) v *= gain;
+    fs::path p = out / "images" / (id + ".png");
+    writeAtomically(p, [&](const fs::path& tmp) {
+      if (png == "16") writePngRgb16(tmp.string(), img);
+      else writePngRgb8(tmp.string(), img);
+    });
+  }
+  Image<uint16_t> inst;
+  json coco_anns = json::array();
+  int W = s.scene.camera.K.width, H = s.scene.camera.K.height;
+  if (r["masks"].flag()) {
+    CoverageFrame cf{f.dominant, f.coverage, s.instances};
+    inst = instanceMask(cf);
+    Image<uint8_t> sem = semanticMask(cf);
+    writeAtomically(out / "masks" / (id + "_semantic.png"), [&](const fs::path& t) { writePngGray8(t.string(), sem); });
+    writeAtomically(out / "masks" / (id + "_instance.png"), [&](const fs::path& t) { writePngGray16(t.string(), inst); });
+    int64_t next = int64_t(s.index) * 65536 + 1;  // unique across samples and shards
+    coco_anns = cocoAnnotations(int(s.index), inst, s.instances, next);
+  }
+  if (r["exr"].flag()) {
+    std::vector<ExrLayer> layers;
+    layers.push_back({"", {"R", "G", "B"}, &f.rgb});
+    if (!f.depth.empty()) layers.push_back({"depth", {"Z"}, &f.depth});
+    if (!f.normal.empty()) layers.push_back({"normal", {"X", "Y", "Z"}, &f.normal});
+    ImageF cov_inst;
+    if (r["masks"].flag()) {
+      cov_inst = ImageF(W, H, 2);
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+          cov_inst(x, y, 0) = f.coverage(x, y);
+          cov_inst(x, y, 1) = float(f.dominant(x, y));
+        }
+      layers.push_back({"mask", {"coverage", "instance"}, &cov_inst});
+    }
+    writeAtomically(out / "images" / (id + ".exr"), [&](const fs::path& t) { writeExr(t.string(), W, H, layers); });
+  }
+  timings["write_s"] = secondsSince(t0);
+  json meta = s.meta;
+  meta["coco"] = {{"image", cocoImageEntry(int(s.index), "images/" + id + ".png", W, H)},
+                  {"annotations", coco_anns}};
+  // Written last: its presence marks the sample complete (for --resume and for assembly).
+  writeTextAtomically(out / "samples" / (id + ".json"), meta.dump(2) + "\n");
+}
+
+bool sampleComplete(const fs::path& out, uint64_t i) { return fs::is_regular_file(out / "samples" / (idName(i) + ".json")); }
+
+}  // namespace
+
+void assembleAnnotations(const std::string& out_dir, int64_t count) {
+  fs::path out(out_dir);
+  json images = json::array(), anns = json::array();
+  for (int64_t i = 0; i < count; ++i) {
+    fs::path p = out / "samples" / (idName(uint64_t(i)) + ".json");
+    if (!fs::is_regular_file(p)) continue;
+    json m = json::parse(readTextFile(p));
+    images.push_back(m["coco"]["image"]);
+    for (auto& a : m["coco"]["annotations"]) anns.push_back(a);
+  }
+  json coco = {{"info", {{"description", "defectgen synthetic defect dataset"}, {"version", "1.0"}}},
+               {"licenses", json::array()},
+               {"categories", cocoCategories()},
+               {"images", images},
+               {"annotations", anns}};
+  writeTextAtomically(out / "annotations.json", coco.dump() + "\n");
+}
+
+GenerateResult runGenerate(const GenerateOptions& o) {
+  auto t_start = Clock::now();
+  if (o.shard_count < 1 || o.shard_index < 0 || o.shard_index >= o.shard_count)
+    throw InputError("--shard", "expected K/N with 0 <= K < N");
+  // 1. Everything that can be wrong with the input is checked before the output folder is touched.
+  Config cfg = loadConfig(o.config_path);
+  applyOverrides(cfg, o);
+  auto t_load = Clock::now();
+  Dataset ds = prepareDataset(cfg);
+  double part_s = secondsSince(t_load);
+  const int64_t count = int64_t(ds.config.root["count"].num());
+  const uint64_t seed = uint64_t(ds.config.root["seed"].num());
+  std::vector<uint64_t> mine;
+  for (int64_t i = o.shard_index; i < count; i += o.shard_count) mine.push_back(uint64_t(i));
+  for (uint64_t i : mine) makeSample(ds, seed, i);  // every sample's draws are valid
+
+  fs::path out = o.out_dir.empty() ? fs::path("out") / fs::path(o.config_path).stem() : fs::path(o.out_dir);
+  std::string hash = ds.config.hash();
+  if (fs::exists(out) && !fs::is_directory(out)) throw InputError(out.string(), "--out: exists and is not a folder");
+  if (fs::is_directory(out) && !fs::is_empty(out)) {
+    fs::path man = out / "manifest.json";
+    bool same = false;
+    if (fs::is_regular_file(man)) {
+      try {
+        json m = json::parse(readTextFile(man));
+        same = m.value("config_hash", "") == hash && m.value("seed", uint64_t(0)) == seed &&
+               m.value("count", int64_t(-1)) == count;
+      } catch (const json::exception&) {
+      }
+    }
+    if (!same)
+      throw InputError(out.string(), "output folder is not empty and holds no dataset of this config, seed and "
+                                     "count; choose another --out or remove the folder");
+    if (!o.resume && o.shard_count == 1)
+      throw InputError(out.string(), "output folder already holds this dataset; pass --resume to continue it "
+                                     "or remove the folder to start again");
+  }
+  for (const char* sub : {"images", "masks", "samples"}) fs::create_directories(out / sub);
+
+  json manifest = {{"config_file", o.config_path},
+                   {"config_hash", hash},
+                   {"seed", seed},
+                   {"count", count},
+                   {"versions", libraryVersions()}};
+  if (!fs::exists(out / "manifest.json")) writeTextAtomically(out / "manifest.json", manifest.dump(2) + "\n");
+
+  // 2. Render this shard's samples.
+  ThreadLimit limit(o.threads);
+  GenerateResult res;
+  res.out_dir = out.string();
+  std::vector<uint64_t> todo;
+  for (uint64_t i : mine) {
+    if (o.resume && sampleComplete(out, i)) {
+      ++res.skipped;
+      continue;
+    }
+    todo.push_back(i);
+  }
+  Progress prog(int(todo.size()), o.quiet);
+  json per_sample = json::array();
+  double render_total = 0;
+  for (uint64_t i : todo) {
+    auto t0 = Clock::now();
+    Sample s = makeSample(ds, seed, i);
+    RenderFrame f = render(s.scene, s.settings);
+    double rs = secondsSince(t0);
+    render_total += rs;
+    json t = {{"index", i}, {"render_s", rs}, {"rays", f.stats.rays}};
+    writeSampleFiles(out, ds.config, s, f, t);
+    per_sample.push_back(t);
+    ++res.rendered;
+    prog.done(i, secondsSince(t0));
+  }
+  assembleAnnotations(out.string(), count);
+  res.seconds = secondsSince(t_start);
+  int complete = 0;
+  for (int64_t i = 0; i < count; ++i) complete += sampleComplete(out, uint64_t(i));
+  manifest["samples_complete"] = complete;
+  manifest["last_run"] = {{"shard", std::to_string(o.shard_index) + "/" + std::to_string(o.shard_count)},
+                          {"threads", o.threads},
+                          {"rendered", res.rendered},
+                          {"skipped", res.skipped},
+                          {"timings", {{"total_s", res.seconds}, {"part_setup_s", part_s},
+                                       {"render_s", render_total}, {"samples", per_sample}}}};
+  writeTextAtomically(out / "manifest.json", manifest.dump(2) + "\n");
+  if (!o.quiet)
+    std::fprintf(stderr, "defectgen: %d sample(s) rendered, %d skipped, in %.1f s; dataset in %s\n", res.rendered,
+                 res.skipped, res.seconds, out.string().c_str());
+  return res;
+}
+
+}  // namespace dg

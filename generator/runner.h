@@ -1,0 +1,40 @@
+// The dataset runner behind `defectgen generate`: validates everything before touching the output
+// folder, renders the samples of this shard, writes each file under a temporary name and renames
+// it when complete, and assembles annotations.json and manifest.json from the complete samples.
+#pragma once
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace dg {
+
+struct GenerateOptions {
+  std::string config_path;
+  std::string out_dir;  // empty = out/<config stem>
+  std::optional<int64_t> count, seed;
+  std::optional<int> spp;          // override render.spp (previews, tests)
+  std::optional<double> scale;     // scale render.resolution (and pixel intrinsics)
+  int threads = 0;                 // 0 = all cores
+  int shard_index = 0, shard_count = 1;
+  bool resume = false;
+  bool quiet = false;
+};
+
+struct GenerateResult {
+  std::string out_dir;
+  int rendered = 0, skipped = 0;
+  double seconds = 0;
+};
+
+GenerateResult runGenerate(const GenerateOptions& opts);
+
+// Rebuilds annotations.json from the complete samples in a dataset folder (used at the end of
+// every run, so shards that write into one folder end with the whole dataset's annotations).
+void assembleAnnotations(const std::string& out_dir, int64_t count);
+
+// Versions of defectgen and of every library it links, for manifest.json and --version.
+nlohmann::json libraryVersions();
+
+}  // namespace dg

@@ -1,0 +1,337 @@
+#include "generator/scene_builder.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "core/error.h"
+#include "defects/dent.h"
+#include "render/mesh_io.h"
+#include "render/parts.h"
+
+namespace dg {
+
+using nlohmann::json;
+
+namespace {
+
+TriangleMesh buildPart(const Config& c) {
+  const Value& p = c.root["part"];
+  std::string type = p["type"].str();
+  auto n = [&](const char* k) { return p[k].num(); };
+  try {
+    if (type == "plate") return makePlate({n("width_mm"), n("height_mm")}, n("tessellation_mm"));
+    if (type == "door_panel") {
+      DoorPanelParams d;
+      d.width_mm = n("width_mm");
+      d.height_mm = n("height_mm");
+      d.curvature_radius_mm = n("curvature_radius_mm");
+      d.character_line_height = n("character_line_height");
+      d.character_line_depth_mm = n("character_line_depth_mm");
+      d.character_line_width_mm = n("character_line_width_mm");
+      return makeDoorPanel(d, n("tessellation_mm"));
+    }
+    if (type == "hood") return makeHood({n("width_mm"), n("length_mm"), n("crown_mm")}, n("tessellation_mm"));
+    if (type == "fender") {
+      FenderParams f;
+      f.length_mm = n("length_mm");
+      f.height_mm = n("height_mm");
+      f.arch_radius_mm = n("arch_radius_mm");
+      f.curvature_radius_mm = n("curvature_radius_mm");
+      return makeFender(f, n("tessellation_mm"));
+    }
+  } catch (const std::invalid_argument& e) {
+    throw InputError(c.file, p.line, p.column, "'part': " + std::string(e.what()));
+  }
+  MeshLoadOptions o;
+  o.unit_scale_to_mm = n("unit_scale_to_mm");
+  return loadMesh(p["path"].str(), o);
+}
+
+Vec3d sampleVec3(const Value& v, Rng& rng, json& rec) {
+  return {sampleNumber(v.items[0], rng, rec), sampleNumber(v.items[1], rng, rec), sampleNumber(v.items[2], rng, rec)};
+}
+Rgb sampleRgb(const Value& v, Rng& rng, json& rec) { return Rgb(sampleVec3(v, rng, rec)); }
+
+json toJson(Vec3f v) { return {v.x, v.y, v.z}; }
+json toJson(Vec3d v) { return {v.x, v.y, v.z}; }
+
+// An orthonormal pair spanning the plane with normal n (for placing area lights): u is world +x
+// projected into the plane (world +y when the plane faces along x), v = n x u.
+void planeAxes(Vec3f n, Vec3f& u, Vec3f& v) {
+  Vec3f x(1, 0, 0);
+  u = x - n * dot(n, x);
+  if (length(u) < 1e-3f) u = Vec3f(0, 1, 0) - n * n.y;
+  u = normalize(u);
+  v = cross(n, u);
+}
+
+}  // namespace
+
+Dataset prepareDataset(Config config) {
+  Dataset ds;
+  ds.part = std::make_shared<PartGeometry>(buildPart(config));
+  const Value& lights = config.root["lights"];
+  ds.env_maps.resize(lights.items.size());
+  for (size_t i = 0; i < lights.items.size(); ++i) {
+    const Value& l = lights.items[i];
+    // A map with constant scale and rotation is loaded once; a random one is loaded per sample.
+    if (l["type"].str() == "environment" && l.has("map") && l["scale"].isConstant() &&
+        l["rotation_deg"].isConstant())
+      ds.env_maps[i] = std::make_shared<EnvironmentMap>(
+          EnvironmentMap::load(l["map"].str(), float(l["scale"].num()), float(l["rotation_deg"].num())));
+  }
+  const Value& cam = config.root["camera"];
+  if (cam.has("calibration")) {
+    ds.has_calibration = true;
+    ds.calibration = loadCalibration(cam["calibration"].str());
+  }
+  ds.config = std::move(config);
+  return ds;
+}
+
+Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
+  const Config& c = ds.config;
+  const Value& root = c.root;
+  Sample s;
+  s.index = index;
+  Rng rng(seed, Stream::Scene, index);
+  json rec = json::object();
+  json meta;
+  meta["index"] = index;
+  meta["seed"] = seed;
+
+  // Render settings.
+  const Value& r = root["render"];
+  int W = int(r["resolution"].items[0].num()), H = int(r["resolution"].items[1].num());
+  s.settings.spp = int(r["spp"].num());
+  s.settings.max_bounces = int(r["max_bounces"].num());
+  s.settings.seed = seed;
+  s.settings.sample_index = index;
+  s.settings.want_rgb = r["png"].str() != "none" || r["exr"].flag();
+  s.settings.want_depth = r["depth"].flag() && r["exr"].flag();
+  s.settings.want_normals = r["normals"].flag() && r["exr"].flag();
+  s.settings.want_coverage = r["masks"].flag();
+  s.settings.coverage_grid = int(r["mask_subsamples"].num());
+
+  // Camera.
+  const Value& cv = root["camera"];
+  CameraIntrinsics K;
+  if (cv.has("fov_deg")) {
+    K = intrinsicsFromFov(W, H, sampleNumber(cv["fov_deg"], rng, rec));
+  } else if (cv.has("intrinsics")) {
+    K.width = W;
+    K.height = H;
+    K.fx = sampleNumber(cv["intrinsics"].items[0], rng, rec);
+    K.fy = sampleNumber(cv["intrinsics"].items[1], rng, rec);
+    K.cx = sampleNumber(cv["intrinsics"].items[2], rng, rec);
+    K.cy = sampleNumber(cv["intrinsics"].items[3], rng, rec);
+    if (!(K.fx > 0 && K.fy > 0))
+      throw InputError(c.file, cv["intrinsics"].line, cv["intrinsics"].column,
+                       "'camera.intrinsics': fx and fy must be > 0");
+  } else {
+    K = scaleIntrinsics(ds.calibration, W, H);
+  }
+  if (!cv.has("calibration")) {
+    double dist[5];
+    for (int i = 0; i < 5; ++i) dist[i] = sampleNumber(cv["distortion"].items[i], rng, rec);
+    K.k1 = dist[0];
+    K.k2 = dist[1];
+    K.p1 = dist[2];
+    K.p2 = dist[3];
+    K.k3 = dist[4];
+  }
+  Vec3d eye = sampleVec3(cv["position"], rng, rec), target = sampleVec3(cv["target"], rng, rec),
+        up = sampleVec3(cv["up"], rng, rec);
+  try {
+    s.scene.camera = cameraLookAt(K, eye, target, up);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(c.file, cv.line, cv.column,
+                     "'camera': cannot aim the camera (position, target and up must not be degenerate): " +
+                         std::string(e.what()));
+  }
+  if (K.hasDistortion()) {
+    try {
+      RayGenerator probe(s.scene.camera);  // solves the inverse distortion over the image
+    } catch (const std::invalid_argument& e) {
+      throw InputError(c.file, cv.line, cv.column, "'camera': the distortion cannot be inverted over the image: " +
+                                                       std::string(e.what()));
+    }
+  }
+  const Camera& cam = s.scene.camera;
+  const Pose& P = cam.world_to_camera;
+  meta["camera"] = {{"width", W},
+                    {"height", H},
+                    {"K", {{K.fx, 0.0, K.cx}, {0.0, K.fy, K.cy}, {0.0, 0.0, 1.0}}},
+                    {"distortion", {K.k1, K.k2, K.p1, K.p2, K.k3}},
+                    {"R_world_to_camera", {{P.R[0], P.R[1], P.R[2]}, {P.R[3], P.R[4], P.R[5]}, {P.R[6], P.R[7], P.R[8]}}},
+                    {"t_world_to_camera", toJson(P.t)},
+                    {"position_mm", toJson(cam.position())},
+                    {"target_mm", toJson(target)}};
+
+  // Material.
+  const Value& mv = root["material"];
+  Material& m = s.scene.material;
+  std::string mt = mv["type"].str();
+  m.model = mv["microfacet"].str() == "beckmann" ? MicrofacetModel::Beckmann : MicrofacetModel::GGX;
+  json mj = {{"type", mt}, {"microfacet", mv["microfacet"].str()}};
+  if (mt == "car_paint") {
+    m.kind = MaterialKind::CarPaint;
+    m.base_color = sampleRgb(mv["base_color"], rng, rec);
+    m.flake_amount = float(sampleNumber(mv["flake_amount"], rng, rec));
+    m.flake_roughness = float(sampleNumber(mv["flake_roughness"], rng, rec));
+    m.coat_roughness = float(sampleNumber(mv["clear_coat_roughness"], rng, rec));
+    m.coat_ior = float(sampleNumber(mv["clear_coat_ior"], rng, rec));
+    mj.update({{"base_color", toJson(m.base_color)},
+               {"flake_amount", m.flake_amount},
+               {"flake_roughness", m.flake_roughness},
+               {"clear_coat_roughness", m.coat_roughness},
+               {"clear_coat_ior", m.coat_ior}});
+  } else if (mt == "metal") {
+    m.kind = MaterialKind::Conductor;
+    std::string name = sampleValue(mv["metal"], rng, rec).get<std::string>();
+    const MetalIor* ior = findMetal(name);
+    if (!ior) throw std::logic_error("metal table lacks " + name);
+    m.eta = ior->eta;
+    m.k = ior->k;
+    m.roughness = float(sampleNumber(mv["roughness"], rng, rec));
+    mj.update({{"metal", name}, {"eta", toJson(m.eta)}, {"k", toJson(m.k)}, {"roughness", m.roughness},
+               {"ior_source", ior->source}});
+  } else {
+    m.kind = MaterialKind::Plastic;
+    m.base_color = sampleRgb(mv["base_color"], rng, rec);
+    m.roughness = float(sampleNumber(mv["roughness"], rng, rec));
+    m.ior = float(sampleNumber(mv["ior"], rng, rec));
+    mj.update({{"base_color", toJson(m.base_color)}, {"roughness", m.roughness}, {"ior", m.ior}});
+  }
+  meta["material"] = mj;
+
+  // Lights.
+  json lj = json::array();
+  const Value& lights = root["lights"];
+  Vec3f cam_pos(cam.position()), cam_fwd(cam.forward());
+  for (size_t i = 0; i < lights.items.size(); ++i) {
+    const Value& l = lights.items[i];
+    std::string type = l["type"].str();
+    json one = {{"type", type}};
+    if (type == "environment" || type == "dome") {
+      Rgb rad = sampleRgb(l["radiance"], rng, rec);
+      if (type == "environment" && l.has("map")) {
+        float scale = float(sampleNumber(l["scale"], rng, rec));
+        float rot = float(sampleNumber(l["rotation_deg"], rng, rec));
+        s.scene.lights.env = ds.env_maps[i] ? ds.env_maps[i]
+                                            : std::make_shared<EnvironmentMap>(
+                                                  EnvironmentMap::load(l["map"].str(), scale, rot));
+        one.update({{"map", l["map"].str()}, {"scale", scale}, {"rotation_deg", rot}});
+      } else {
+        s.scene.lights.env = std::make_shared<EnvironmentMap>(EnvironmentMap::constant(rad));
+        one["radiance"] = toJson(rad);
+      }
+      lj.push_back(one);
+      continue;
+    }
+    AreaLight al;
+    al.name = type;
+    if (type == "rect" || type == "disk") {
+      Vec3f pos(sampleVec3(l["position"], rng, rec)), tgt(sampleVec3(l["target"], rng, rec));
+      if (!(length(tgt - pos) > 0))
+        throw InputError(c.file, l.line, l.column, "'" + l.path + "': position and target must differ");
+      al.center = pos;
+      al.normal = normalize(tgt - pos);
+      planeAxes(al.normal, al.axis_u, al.axis_v);
+      if (type == "rect") {
+        al.shape = AreaLight::Shape::Rect;
+        al.half_u = float(sampleNumber(l["size_mm"].items[0], rng, rec)) * 0.5f;
+        al.half_v = float(sampleNumber(l["size_mm"].items[1], rng, rec)) * 0.5f;
+      } else {
+        al.shape = AreaLight::Shape::Disk;
+        al.radius = float(sampleNumber(l["radius_mm"], rng, rec));
+      }
+    } else if (type == "ring" || type == "coaxial") {
+      al.shape = AreaLight::Shape::Disk;
+      al.center = cam_pos;
+      al.normal = cam_fwd;
+      planeAxes(al.normal, al.axis_u, al.axis_v);
+      al.radius = float(sampleNumber(l["radius_mm"], rng, rec));
+      if (type == "ring") {
+        al.inner_radius = float(sampleNumber(l["inner_radius_mm"], rng, rec));
+        if (!(al.inner_radius < al.radius))
+          throw InputError(c.file, l.line, l.column, "'" + l.path + "': sampled inner_radius_mm >= radius_mm");
+      }
+      al.visible_to_camera = false;  // it sits in the lens plane, behind the entrance pupil
+    } else if (type == "bar") {
+      float len = float(sampleNumber(l["length_mm"], rng, rec)), wid = float(sampleNumber(l["width_mm"], rng, rec));
+      float dist = float(sampleNumber(l["distance_mm"], rng, rec));
+      float el = degToRad(float(sampleNumber(l["elevation_deg"], rng, rec)));
+      float az = degToRad(float(sampleNumber(l["azimuth_deg"], rng, rec)));
+      Vec3f tgt(sampleVec3(l["target"], rng, rec));
+      Vec3f dir(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+      al.shape = AreaLight::Shape::Rect;
+      al.center = tgt + dir * dist;
+      al.normal = -dir;
+      al.axis_u = Vec3f(-std::sin(az), std::cos(az), 0.0f);  // the bar runs horizontally
+      al.axis_v = cross(al.normal, al.axis_u);
+      al.half_u = len * 0.5f;
+      al.half_v = wid * 0.5f;
+    }
+    al.radiance = sampleRgb(l["radiance"], rng, rec);
+    one.update({{"center_mm", toJson(al.center)},
+                {"normal", toJson(al.normal)},
+                {"shape", al.shape == AreaLight::Shape::Rect ? "rect" : "disk"},
+                {"radiance", toJson(al.radiance)}});
+    if (al.shape == AreaLight::Shape::Rect)
+      one["size_mm"] = {2 * al.half_u, 2 * al.half_v};
+    else
+      one.update({{"radius_mm", al.radius}, {"inner_radius_mm", al.inner_radius}});
+    s.scene.lights.area.push_back(al);
+    lj.push_back(one);
+  }
+  meta["lights"] = lj;
+
+  // Defects, placed at sampled positions in the part's UV chart.
+  s.defects = std::make_unique<DefectList>();
+  Box2 uvb = ds.part->uvBounds();
+  json dj = json::array();
+  const Value& groups = root["defects"];
+  for (size_t g = 0; g < groups.items.size(); ++g) {
+    const Value& d = groups.items[g];
+    int count = int(sampleNumber(d["count"], rng, rec));
+    for (int k = 0; k < count; ++k) {
+      json local = json::object();
+      const Value& reg = d["region"];
+      double u0 = reg.items[0].num(), v0 = reg.items[1].num(), u1 = reg.items[2].num(), v1 = reg.items[3].num();
+      DentParams dp;
+      double fu = u0 + rng.uniformD() * (u1 - u0), fv = v0 + rng.uniformD() * (v1 - v0);
+      dp.center_uv = {float(uvb.lo.x + fu * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + fv * (uvb.hi.y - uvb.lo.y))};
+      dp.radius_mm = float(sampleNumber(d["radius_mm"], rng, local));
+      dp.depth_mm = float(sampleNumber(d["depth_mm"], rng, local));
+      dp.mask_threshold = float(d["mask_threshold"].num());
+      auto dent = std::make_unique<Dent>(dp);
+      uint16_t id = uint16_t(s.defects->size() + 1);
+      dent->setInstanceId(id);
+      // Per-instance draws are recorded under defects[g][k].key.
+      for (auto& kv : local.items()) {
+        std::string key = kv.key();
+        std::string base = "defects[" + std::to_string(g) + "]";
+        rec[base + "[" + std::to_string(k) + "]" + key.substr(base.size())] = kv.value();
+      }
+      InstanceInfo info;
+      info.id = id;
+      info.cls = dent->cls();
+      info.attributes = dent->attributes();
+      info.attributes["group"] = g;
+      s.instances.push_back(info);
+      dj.push_back({{"instance_id", id}, {"class", "dent"}, {"group", g}, {"attributes", info.attributes}});
+      s.defects->push_back(std::move(dent));
+    }
+  }
+  if (s.defects->size() > 65535) throw InputError(c.file, groups.line, groups.column, "more than 65535 defects in one sample");
+  meta["defects"] = dj;
+  meta["sampled"] = rec;
+  s.scene.part = ds.part;
+  s.scene.defects = s.defects.get();
+  s.scene.defect_index = DefectIndex(*s.defects, uvb);
+  s.meta = std::move(meta);
+  return s;
+}
+
+}  // namespace dg

@@ -1,0 +1,425 @@
+// BSDFs of the three material kinds (see bsdf.h). Everything below evalBsdf/pdfBsdf/sampleBsdf runs
+// once or more per path vertex, so it is plain float arithmetic: no allocation, no virtual calls,
+// no std::complex.
+//
+// Conventions: local shading frame, normal = +z, wo and wi point away from the surface, reflection
+// only (a direction with z <= 0 gives f = 0 and pdf = 0). Microfacet alpha = roughness^2.
+#include "render/bsdf.h"
+
+#include <cctype>
+#include <cmath>
+#include <limits>
+
+namespace dg {
+
+// ------------------------------------------------------------------------------------------------
+// Metal table
+// ------------------------------------------------------------------------------------------------
+
+namespace {
+
+const char* kLabPbr =
+    "LabPBR hardcoded metals (rre36/lab-pbr wiki), as listed in "
+    "shared/reference/mihaylov-metals.md §2.3; RGB rendering constants, not a measured spectrum";
+
+}  // namespace
+
+const std::vector<MetalIor>& metalTable() {
+  static const std::vector<MetalIor> table = {
+      {"steel", Rgb{2.4401f, 2.0440f, 1.6778f}, Rgb{4.1820f, 3.6732f, 3.1170f},
+       "Austenitic stainless steel (Avesta 832 MV, similar to AISI 316): Karlsson & Ribbing 1982, "
+       "J. Appl. Phys. 53, 6340, as tabulated on refractiveindex.info (values read from a figure "
+       "by "
+       "the database); linearly interpolated by us at 650/550/450 nm. Not iron's values; for plain "
+       "carbon steel use 'iron'"},
+      {"iron", Rgb{2.9114f, 2.9497f, 2.5845f}, Rgb{3.0893f, 2.9318f, 2.7670f}, kLabPbr},
+      {"aluminium", Rgb{1.3456f, 0.96521f, 0.61722f}, Rgb{7.4746f, 6.3995f, 5.3031f}, kLabPbr},
+      {"chrome", Rgb{3.1071f, 3.1812f, 2.3230f}, Rgb{3.3314f, 3.3291f, 3.1350f}, kLabPbr},
+      {"copper", Rgb{0.27105f, 0.67693f, 1.3164f}, Rgb{3.6092f, 2.6248f, 2.2921f}, kLabPbr},
+      {"brass", Rgb{0.444f, 0.527f, 1.094f}, Rgb{3.695f, 2.765f, 1.829f},
+       "Brass 70% Cu / 30% Zn: M. R. Querry, Optical constants, CRDC-CR-85034 (1985), as tabulated "
+       "on refractiveindex.info (Cu-Zn/Querry-Cu70Zn30); table entries at 650/550/450 nm"},
+      {"titanium", Rgb{2.7407f, 2.5418f, 2.2670f}, Rgb{3.8143f, 3.4345f, 3.0385f},
+       "Titanium: Johnson & Christy 1974, Phys. Rev. B 9, 5056, as tabulated on "
+       "refractiveindex.info "
+       "(Ti/Johnson); linearly interpolated by us at 650/550/450 nm"},
+      {"gold", Rgb{0.18299f, 0.42108f, 1.3734f}, Rgb{3.4242f, 2.3459f, 1.7704f}, kLabPbr},
+      {"silver", Rgb{0.15943f, 0.14512f, 0.13547f}, Rgb{3.9291f, 3.1900f, 2.3808f}, kLabPbr},
+  };
+  return table;
+}
+
+const MetalIor* findMetal(const std::string& name) {
+  std::string key;
+  key.reserve(name.size());
+  for (char c : name) key.push_back(char(std::tolower(static_cast<unsigned char>(c))));
+  if (key == "aluminum") key = "aluminium";
+  for (const MetalIor& m : metalTable())
+    if (m.name == key) return &m;
+  return nullptr;
+}
+
+// ------------------------------------------------------------------------------------------------
+// Fresnel
+// ------------------------------------------------------------------------------------------------
+
+// Exact reflectance of a plane wave hitting a medium of complex index n + ik from vacuum. Real form
+// of the Fresnel equations (Born & Wolf, Principles of Optics, §14.2, reflection at a metal
+// surface), with s^2 = sin^2(theta), c = cos(theta):
+//   A = n^2 - k^2 - s^2,   a^2 + b^2 = sqrt(A^2 + 4 n^2 k^2),   a^2 - b^2 = A,
+//   Rs = ((a - c)^2 + b^2) / ((a + c)^2 + b^2),
+//   Rp = Rs * ((a c - s^2)^2 + b^2 c^2) / ((a c + s^2)^2 + b^2 c^2).
+// (a + ib is sqrt(n_complex^2 - s^2) = n_complex cos(theta_t).) The Rp factor is the textbook
+// (a^2+b^2 - 2 a s tan + s^2 tan^2)/(... + ...) multiplied through by c^2 so that it stays finite
+// at grazing incidence; writing numerators and denominators as sums of squares avoids cancellation.
+// a^2 and b^2 are each taken from whichever of the two equivalent expressions does not subtract
+// nearly equal numbers (0.5 (t + A) = 2 n^2 k^2 / (t - A)). With k = 0 and n < 1 past the critical
+// angle this gives a = 0 and Rs = Rp = 1, i.e. total internal reflection comes out by itself.
+float fresnelConductor(float cos_i, float eta, float k) {
+  const float c = clampf(cos_i, 0.0f, 1.0f);
+  const float c2 = c * c;
+  const float s2 = 1.0f - c2;
+  // A = n^2 - k^2 - s^2 with s^2 = 1 - c^2, grouped so that n -> 1 loses no precision.
+  const float A = (eta - 1.0f) * (eta + 1.0f) - k * k + c2;
+  const float nk2 = eta * eta * k * k;
+  const float t = std::sqrt(A * A + 4.0f * nk2);  // a^2 + b^2
+  const float a2 = A >= 0.0f ? 0.5f * (t + A) : 2.0f * nk2 / (t - A);
+  const float b2 = A <= 0.0f ? 0.5f * (t - A) : 2.0f * nk2 / (t + A);
+  const float a = std::sqrt(a2);
+  const float rs_den = (a + c) * (a + c) + b2;
+  if (!(rs_den > 0.0f)) return 1.0f;  // n = 1, k = 0 at exact grazing: the limit is 1
+  const float rs = ((a - c) * (a - c) + b2) / rs_den;
+  const float p_num = (a * c - s2) * (a * c - s2) + b2 * c2;
+  const float p_den = (a * c + s2) * (a * c + s2) + b2 * c2;
+  const float rp = p_den > 0.0f ? rs * (p_num / p_den) : rs;  // p_den = 0 only when s = 0 and a = 0
+  return 0.5f * (rs + rp);
+}
+
+Rgb fresnelConductor(float cos_i, Rgb eta, Rgb k) {
+  return {fresnelConductor(cos_i, eta.x, k.x), fresnelConductor(cos_i, eta.y, k.y),
+          fresnelConductor(cos_i, eta.z, k.z)};
+}
+
+// Fresnel equations for a real relative index eta = n_t / n_i (Born & Wolf §1.5.2):
+//   rs = (cos_i - eta cos_t) / (cos_i + eta cos_t),
+//   rp = (eta cos_i - cos_t) / (eta cos_i + cos_t),
+// cos_t from Snell's law; sin^2(theta_t) >= 1 is total internal reflection.
+float fresnelDielectric(float cos_i, float eta) {
+  const float c = clampf(cos_i, 0.0f, 1.0f);
+  if (!(eta > 0.0f)) return 1.0f;
+  // cos^2(theta_t) = 1 - (1 - c^2) / eta^2, grouped so that eta -> 1 loses no precision.
+  const float cos_t2 = (c * c + (eta - 1.0f) * (eta + 1.0f)) / (eta * eta);
+  if (cos_t2 <= 0.0f) return 1.0f;
+  const float cos_t = std::sqrt(cos_t2);
+  const float rs = (c - eta * cos_t) / (c + eta * cos_t);
+  const float rp = (eta * c - cos_t) / (eta * c + cos_t);
+  return 0.5f * (rs * rs + rp * rp);
+}
+
+// ------------------------------------------------------------------------------------------------
+// Microfacet distributions (isotropic), Smith masking-shadowing, sampling
+// ------------------------------------------------------------------------------------------------
+
+namespace {
+
+constexpr float kInvSqrtPi = 0.56418958354775628695f;
+constexpr float kMinAlpha = kMinRoughness * kMinRoughness;
+
+inline float alphaOf(float roughness) {
+  const float r =
+      clampf(roughness, kMinRoughness, 1.0f);  // NaN roughness also ends at kMinRoughness
+  return std::max(r * r, kMinAlpha);
+}
+
+// Normal distribution D(h), normalised so that the projected microfacet area integrates to one:
+// integral of D(h) h.z over the hemisphere = 1.
+//  GGX / Trowbridge-Reitz (Walter et al. 2007, eq. 33):
+//    D = alpha^2 / (pi (sin^2 + alpha^2 cos^2)^2)
+//    (the same as 1 / (pi alpha^2 cos^4 (1 + tan^2/alpha^2)^2), written without tan).
+//  Beckmann (Walter et al. 2007, eq. 25): D = exp(-tan^2/alpha^2) / (pi alpha^2 cos^4).
+inline float ndf(MicrofacetModel model, float alpha, Vec3f h) {
+  if (h.z <= 0.0f) return 0.0f;
+  const float sin2 = h.x * h.x + h.y * h.y;
+  const float cos2 = h.z * h.z;
+  const float a2 = alpha * alpha;
+  if (model == MicrofacetModel::GGX) {
+    const float d = sin2 + a2 * cos2;
+    return a2 / (kPiF * d * d);
+  }
+  const float e = sin2 / (cos2 * a2);  // tan^2 / alpha^2
+  if (!(e < 80.0f)) return 0.0f;       // exp(-80) ~ 2e-35: below anything that matters, avoids 0/0
+  return std::exp(-e) / (kPiF * a2 * cos2 * cos2);
+}
+
+// Smith Lambda for direction w (Heitz 2014, "Understanding the Masking-Shadowing Function in
+// Microfacet-Based BRDFs", JCGT 3(2)):
+//  GGX (eq. 72): Lambda = (-1 + sqrt(1 + alpha^2 tan^2)) / 2
+//  Beckmann (the Beckmann case in the same paper; 1 / (1 + Lambda) is the exact Smith-Beckmann G1
+//  of Walter et al. 2007): Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)), a = 1/(alpha tan)
+inline float smithLambda(MicrofacetModel model, float alpha, Vec3f w) {
+  const float sin2 = w.x * w.x + w.y * w.y;
+  const float cos2 = w.z * w.z;
+  if (sin2 <= 0.0f) return 0.0f;  // along the normal nothing is masked
+  if (!(cos2 > 0.0f)) return std::numeric_limits<float>::infinity();
+  if (model == MicrofacetModel::GGX) {
+    const float x = alpha * alpha * sin2 / cos2;  // alpha^2 tan^2
+    const float r = std::sqrt(1.0f + x);
+    // For small x use x / (2 (1 + r)), the same value without the cancellation of r - 1.
+    return x > 1.0f ? 0.5f * (r - 1.0f) : x / (2.0f * (1.0f + r));
+  }
+  const float a = std::sqrt(cos2 / sin2) / alpha;  // 1 / (alpha tan)
+  if (a > 9.0f) return 0.0f;  // Lambda < 1e-37 there; the formula would only return rounding noise
+  // erf(a) - 1 = -erfc(a), which keeps the precision for large a.
+  const float v = 0.5f * (std::exp(-a * a) * kInvSqrtPi / a - std::erfc(a));
+  return std::max(v, 0.0f);
+}
+
+inline float smithG1(MicrofacetModel model, float alpha, Vec3f w) {
+  return 1.0f / (1.0f + smithLambda(model, alpha, w));
+}
+
+// Height-correlated masking-shadowing (Heitz 2014, eq. 99): G2 = 1 / (1 + Lambda(wo) + Lambda(wi)).
+inline float smithG2(MicrofacetModel model, float alpha, Vec3f wo, Vec3f wi) {
+  // Lambda sum first: a + b == b + a exactly in IEEE arithmetic, so G2(wo, wi) == G2(wi, wo)
+  // bitwise.
+  return 1.0f / (1.0f + (smithLambda(model, alpha, wo) + smithLambda(model, alpha, wi)));
+}
+
+// D G2 / (4 cos_o cos_i): the microfacet reflection BRDF without its Fresnel factor
+// (Walter et al. 2007, eq. 20). Symmetric in wo and wi.
+inline float microfacetReflection(MicrofacetModel model, float alpha, Vec3f wo, Vec3f wi, Vec3f h) {
+  const float den = 4.0f * wo.z * wi.z;
+  if (!(den > 0.0f)) return 0.0f;
+  return ndf(model, alpha, h) * smithG2(model, alpha, wo, wi) / den;
+}
+
+inline Vec3f reflectAbout(Vec3f wo, Vec3f h) { return h * (2.0f * dot(wo, h)) - wo; }
+
+// Samples a microfacet normal h for the given wo.
+//  GGX: the distribution of visible normals D_wo(h) = G1(wo) max(0, wo.h) D(h) / wo.z, sampled
+//       exactly with Heitz 2018 ("Sampling the GGX Distribution of Visible Normals", JCGT 7(4)):
+//       stretch wo to the alpha = 1 configuration, pick a point uniformly on the disk seen from the
+//       stretched direction, squash the half of the disk that is hidden behind the hemisphere onto
+//       the visible half, lift it onto the hemisphere and unstretch the resulting normal.
+//  Beckmann: D(h) cos(theta_h) by inverting its CDF (Walter et al. 2007, eqs. 28-29):
+//       tan^2(theta_h) = -alpha^2 ln(1 - u1), phi_h = 2 pi u2.
+// Returns false when the sample cannot give a reflection into the upper hemisphere.
+inline bool sampleMicrofacetNormal(MicrofacetModel model, float alpha, Vec3f wo, Vec2f u,
+                                   Vec3f& h) {
+  const float phi = 2.0f * kPiF * u.y;
+  if (model == MicrofacetModel::GGX) {
+    const Vec3f v = normalize(Vec3f(alpha * wo.x, alpha * wo.y, wo.z));
+    const float len2 = v.x * v.x + v.y * v.y;
+    Vec3f t1 = len2 > 0.0f ? Vec3f(-v.y, v.x, 0.0f) / std::sqrt(len2) : Vec3f(1.0f, 0.0f, 0.0f);
+    Vec3f t2 = cross(v, t1);
+    const float r = std::sqrt(u.x);
+    const float p1 = r * std::cos(phi);
+    float p2 = r * std::sin(phi);
+    const float blend = 0.5f * (1.0f + v.z);
+    p2 = (1.0f - blend) * safeSqrt(1.0f - p1 * p1) + blend * p2;
+    const Vec3f n = t1 * p1 + t2 * p2 + v * safeSqrt(1.0f - p1 * p1 - p2 * p2);
+    h = normalize(Vec3f(alpha * n.x, alpha * n.y, std::max(0.0f, n.z)));
+    return h.z > 0.0f;
+  }
+  const float tan2 = -alpha * alpha * std::log1p(-u.x);
+  const float cos_t = 1.0f / std::sqrt(1.0f + tan2);
+  const float sin_t = std::sqrt(tan2) * cos_t;
+  h = Vec3f(sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t);
+  return dot(wo, h) > 0.0f;
+}
+
+// Solid-angle density of wi = reflect(wo, h) under sampleMicrofacetNormal. Both use
+// dwi/dh = 1 / (4 |wo.h|) (Walter et al. 2007, eq. 14).
+//  GGX VNDF: G1(wo) (wo.h) D(h) / wo.z / (4 wo.h) = G1(wo) D(h) / (4 wo.z)  (Heitz 2018).
+//  Beckmann: D(h) h.z / (4 wo.h).
+inline float microfacetPdf(MicrofacetModel model, float alpha, Vec3f wo, Vec3f h) {
+  const float d = ndf(model, alpha, h);
+  if (model == MicrofacetModel::GGX) return d * smithG1(model, alpha, wo) / (4.0f * wo.z);
+  const float oh = dot(wo, h);
+  return oh > 0.0f ? d * h.z / (4.0f * oh) : 0.0f;
+}
+
+// Fresnel-Schlick with a coloured F0 (Schlick 1994, "An Inexpensive BRDF Model for
+// Physically-based Rendering"): F0 + (1 - F0)(1 - cos)^5.
+inline Rgb schlick(float cos_t, Rgb f0) {
+  const float m = clampf(1.0f - cos_t, 0.0f, 1.0f);
+  const float m5 = (m * m) * (m * m) * m;
+  return f0 + (Rgb(1.0f) - f0) * m5;
+}
+
+inline Rgb clamp01(Rgb c) {
+  return {clampf(c.x, 0.0f, 1.0f), clampf(c.y, 0.0f, 1.0f), clampf(c.z, 0.0f, 1.0f)};
+}
+
+// ------------------------------------------------------------------------------------------------
+// Lobes
+// ------------------------------------------------------------------------------------------------
+//
+// Conductor: one lobe, F_conductor(wo.h) D G2 / (4 cos_o cos_i).
+//
+// Plastic: a dielectric microfacet coat (white, F_dielectric(wo.h; ior) D G2 / (4 cos_o cos_i))
+// over
+//   a Lambertian base seen through the coat:
+//     f_base = base_color / pi * (1 - F(cos_i)) (1 - F(cos_o)),   F = F_dielectric(.; ior).
+//   (1 - F(cos_i)) is the part of the light that gets through the coat on the way in, (1 -
+//   F(cos_o)) on the way out; the product is symmetric, so f stays reciprocal. We deliberately use
+//   no normalising factor: the albedo is then at most F(cos_o) + (1 - F(cos_o)) (1 - Fbar) base,
+//   Fbar = cosine-weighted hemispherical average of F (0.092 for ior 1.5), so it never exceeds 1
+//   whatever the coat roughness. The price is that the inter-reflections between base and coat are
+//   not returned (a layered model, e.g. Weidlich & Wilkie 2007, would add them), making the diffuse
+//   part about (1 - Fbar) darker than base_color/pi at normal incidence (~9% for ior 1.5); choose
+//   base_color with that in mind. For ior -> 1 it reduces exactly to Lambert.
+//
+// CarPaint: clear coat (coat_roughness, coat_ior; same as the plastic coat) over a base layer, with
+//   the same (1 - F(cos_i)) (1 - F(cos_o)) weighting of the base:
+//     base = (1 - flake_amount) base_color / pi
+//          + flake_amount * Schlick(wo.h; F0 = base_color) D G2 / (4 cos_o cos_i) [flake_roughness]
+//   The flake lobe is an appearance model of metallic paint flakes, not a bare metal: its colour is
+//   a tint, so Fresnel-Schlick with F0 = base_color is an acceptable choice there (bare metals use
+//   the exact conductor Fresnel above). The base lobes are evaluated with the outside directions
+//   (no refraction through the coat): a simplification that keeps the model reciprocal and
+//   energy-conserving (the base albedo is a convex mix of two lobes each <= 1).
+
+enum Lobe { kSpec = 0, kDiffuse = 1, kFlake = 2 };
+
+// Probabilities with which sampleBsdf picks each lobe at wo, from cheap estimates of each lobe's
+// albedo: the coat reflects about F(cos_o); the rest, (1 - F(cos_o)), reaches the base, split by
+// flake_amount and weighted by the luminance of base colour / flake tint. A floor (10% spread over
+// the lobes that exist) keeps every lobe reachable so that MIS never divides by a tiny probability.
+struct LobeProbs {
+  float p[3] = {0.0f, 0.0f, 0.0f};
+};
+
+inline LobeProbs lobeProbs(const Material& m, Vec3f wo) {
+  LobeProbs lp;
+  float w[3] = {0.0f, 0.0f, 0.0f};
+  switch (m.kind) {
+    case MaterialKind::Conductor:
+      lp.p[kSpec] = 1.0f;
+      return lp;
+    case MaterialKind::Plastic: {
+      const float f = fresnelDielectric(wo.z, m.ior);
+      w[kSpec] = f;
+      w[kDiffuse] = (1.0f - f) * std::max(0.0f, luminance(clamp01(m.base_color)));
+      break;
+    }
+    case MaterialKind::CarPaint: {
+      const float f = fresnelDielectric(wo.z, m.coat_ior);
+      const float fa = clampf(m.flake_amount, 0.0f, 1.0f);
+      const Rgb base = clamp01(m.base_color);
+      w[kSpec] = f;
+      w[kDiffuse] = (1.0f - f) * (1.0f - fa) * luminance(base);
+      w[kFlake] = (1.0f - f) * fa * luminance(schlick(wo.z, base));
+      break;
+    }
+  }
+  float sum = 0.0f;
+  int n = 0;
+  for (float x : w) {
+    sum += x;
+    n += x > 0.0f ? 1 : 0;
+  }
+  if (!(sum > 0.0f)) {  // nothing reflects (e.g. ior = 1 and black base): sample the coat anyway
+    lp.p[kSpec] = 1.0f;
+    return lp;
+  }
+  for (int i = 0; i < 3; ++i) lp.p[i] = w[i] > 0.0f ? 0.9f * (w[i] / sum) + 0.1f / float(n) : 0.0f;
+  return lp;
+}
+
+}  // namespace
+
+Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi) {
+  if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return Rgb(0.0f);
+  // |wo + wi| = 2 cos(theta_h) with wo.h = wi.h = cos(theta_h). Taking the Fresnel cosine from the
+  // length instead of from dot(wo, h) keeps f(wo, wi) and f(wi, wo) bitwise equal (the two dot
+  // products differ by rounding, which matters for Fresnel near grazing).
+  const Vec3f sum = wo + wi;
+  const float len = length(sum);
+  if (!(len > 0.0f)) return Rgb(0.0f);
+  const Vec3f h = sum / len;
+  const float cos_oh = clampf(0.5f * len, 0.0f, 1.0f);
+  switch (m.kind) {
+    case MaterialKind::Conductor: {
+      const float mf = microfacetReflection(m.model, alphaOf(m.roughness), wo, wi, h);
+      return fresnelConductor(cos_oh, m.eta, m.k) * mf;
+    }
+    case MaterialKind::Plastic: {
+      const float spec = fresnelDielectric(cos_oh, m.ior) *
+                         microfacetReflection(m.model, alphaOf(m.roughness), wo, wi, h);
+      const float through =
+          (1.0f - fresnelDielectric(wi.z, m.ior)) * (1.0f - fresnelDielectric(wo.z, m.ior));
+      return clamp01(m.base_color) * (through * kInvPiF) + Rgb(spec);
+    }
+    case MaterialKind::CarPaint: {
+      const float spec = fresnelDielectric(cos_oh, m.coat_ior) *
+                         microfacetReflection(m.model, alphaOf(m.coat_roughness), wo, wi, h);
+      const float through = (1.0f - fresnelDielectric(wi.z, m.coat_ior)) *
+                            (1.0f - fresnelDielectric(wo.z, m.coat_ior));
+      const float fa = clampf(m.flake_amount, 0.0f, 1.0f);
+      const Rgb base = clamp01(m.base_color);
+      Rgb layer = base * ((1.0f - fa) * kInvPiF);
+      if (fa > 0.0f) {
+        const float mf = microfacetReflection(m.model, alphaOf(m.flake_roughness), wo, wi, h);
+        layer += schlick(cos_oh, base) * (fa * mf);
+      }
+      return layer * through + Rgb(spec);
+    }
+  }
+  return Rgb(0.0f);
+}
+
+float pdfBsdf(const Material& m, Vec3f wo, Vec3f wi) {
+  if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return 0.0f;
+  const Vec3f h = normalize(wo + wi);
+  const LobeProbs lp = lobeProbs(m, wo);
+  const float spec_alpha =
+      alphaOf(m.kind == MaterialKind::CarPaint ? m.coat_roughness : m.roughness);
+  float pdf = 0.0f;
+  if (lp.p[kSpec] > 0.0f) pdf += lp.p[kSpec] * microfacetPdf(m.model, spec_alpha, wo, h);
+  if (lp.p[kDiffuse] > 0.0f) pdf += lp.p[kDiffuse] * wi.z * kInvPiF;
+  if (lp.p[kFlake] > 0.0f)
+    pdf += lp.p[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), wo, h);
+  return pdf;
+}
+
+bool sampleBsdf(const Material& m, Vec3f wo, float u0, Vec2f u, BsdfSample& out) {
+  if (!(wo.z > 0.0f)) return false;
+  const LobeProbs lp = lobeProbs(m, wo);
+  // Pick the first lobe whose cumulative probability exceeds u0; rounding leftovers go to the last
+  // lobe that can be picked at all.
+  int lobe = -1;
+  float cdf = 0.0f;
+  for (int i = 0; i < 3; ++i) {
+    if (lp.p[i] <= 0.0f) continue;
+    lobe = i;
+    cdf += lp.p[i];
+    if (u0 < cdf) break;
+  }
+  if (lobe < 0) return false;
+
+  Vec3f wi;
+  if (lobe == kDiffuse) {
+    // Cosine-weighted hemisphere (Malley's method): uniform point on the unit disk lifted up.
+    const float r = std::sqrt(u.x);
+    const float phi = 2.0f * kPiF * u.y;
+    wi = Vec3f(r * std::cos(phi), r * std::sin(phi), safeSqrt(1.0f - u.x));
+  } else {
+    float alpha;
+    if (lobe == kFlake)
+      alpha = alphaOf(m.flake_roughness);
+    else
+      alpha = alphaOf(m.kind == MaterialKind::CarPaint ? m.coat_roughness : m.roughness);
+    Vec3f h;
+    if (!sampleMicrofacetNormal(m.model, alpha, wo, u, h)) return false;
+    wi = reflectAbout(wo, h);
+  }
+  if (!(wi.z > 0.0f)) return false;
+  out.wi = wi;
+  out.pdf = pdfBsdf(m, wo, wi);
+  if (!(out.pdf > 0.0f) || !std::isfinite(out.pdf)) return false;
+  out.f = evalBsdf(m, wo, wi);
+  return true;
+}
+
+}  // namespace dg

@@ -1,0 +1,60 @@
+// The path tracer: next-event estimation toward every light with multiple importance sampling
+// (Veach 1997, power heuristic), TBB over 32x32 tiles, ray differentials carried to every hit,
+// counter-based random numbers keyed by (seed, sample, pixel, pixel sample) so that the image does
+// not depend on the thread count or the tile order.
+#pragma once
+#include <cstdint>
+#include <memory>
+
+#include "core/image.h"
+#include "defects/defect.h"
+#include "defects/defect_index.h"
+#include "render/bsdf.h"
+#include "render/camera.h"
+#include "render/lights.h"
+#include "render/scene.h"
+
+namespace dg {
+
+struct RenderScene {
+  std::shared_ptr<const PartGeometry> part;
+  Material material;
+  LightSet lights;
+  Camera camera;
+  const DefectList* defects = nullptr;  // may be null or empty
+  DefectIndex defect_index;             // empty when there are no defects
+};
+
+struct RenderSettings {
+  int spp = 16;
+  int max_bounces = 4;
+  uint64_t seed = 0;
+  uint64_t sample_index = 0;
+  bool want_rgb = true;
+  bool want_depth = false;     // camera-space z (mm) of the pixel-centre hit, 0 on a miss
+  bool want_normals = false;   // world shading normal (after bump) of the pixel-centre hit
+  bool want_coverage = false;  // per-pixel dominant defect instance and its coverage
+  int coverage_grid = 4;       // the pixel footprint is sampled on a grid of n x n points
+};
+
+struct RenderStats {
+  uint64_t rays = 0;         // all rays cast (closest-hit and occlusion)
+  double seconds_shading = 0;
+};
+
+struct RenderFrame {
+  ImageF rgb;                  // linear Rec.709
+  ImageF depth;                // 1 channel
+  ImageF normal;               // 3 channels
+  Image<uint16_t> dominant;    // instance id covering most of the pixel, 0 = none
+  ImageF coverage;             // its coverage fraction
+  RenderStats stats;
+};
+
+RenderFrame render(const RenderScene& scene, const RenderSettings& settings);
+
+// The camera pass alone: one primary ray per pixel centre through the same ray generator and
+// intersection call as render(); returns the number of hits. For the throughput benchmark.
+uint64_t primaryPass(const RenderScene& scene, const RayGenerator& rays);
+
+}  // namespace dg

@@ -1,0 +1,92 @@
+#include "render/scene.h"
+
+#include <cmath>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+
+namespace dg {
+
+RTCDevice embreeDevice() {
+  static RTCDevice device = [] {
+    RTCDevice d = rtcNewDevice("verbose=0");
+    if (!d) throw std::runtime_error("Embree: cannot create device (error " +
+                                     std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
+    return d;
+  }();
+  return device;
+}
+
+PartGeometry::PartGeometry(TriangleMesh mesh) : mesh_(std::move(mesh)) {
+  RTCDevice dev = embreeDevice();
+  scene_ = rtcNewScene(dev);
+  rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+  RTCGeometry geom = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+  size_t nv = mesh_.positions.size(), nt = mesh_.triangleCount();
+  auto* vb = static_cast<float*>(
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
+  for (size_t i = 0; i < nv; ++i) {
+    vb[3 * i] = mesh_.positions[i].x;
+    vb[3 * i + 1] = mesh_.positions[i].y;
+    vb[3 * i + 2] = mesh_.positions[i].z;
+  }
+  auto* ib = static_cast<unsigned*>(
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), nt));
+  for (size_t i = 0; i < 3 * nt; ++i) ib[i] = mesh_.indices[i];
+  rtcCommitGeometry(geom);
+  rtcAttachGeometry(scene_, geom);
+  rtcReleaseGeometry(geom);
+  rtcCommitScene(scene_);
+
+  // Tangent frames from the UV chart (shared/reference/blinn-bump.md §8.1): exact dP/du, dP/dv of
+  // the piecewise-linear surface, with a guard for degenerate UV triangles.
+  frames_.resize(nt);
+  Vec3f lo, hi;
+  mesh_.bounds(lo, hi);
+  center_ = (lo + hi) * 0.5f;
+  radius_ = 0.5f * length(hi - lo);
+  bool has_uv = mesh_.uvs.size() == nv;
+  for (size_t t = 0; t < nt; ++t) {
+    const uint32_t* f = &mesh_.indices[3 * t];
+    Vec3d p0(mesh_.positions[f[0]]), p1(mesh_.positions[f[1]]), p2(mesh_.positions[f[2]]);
+    Vec3d e1 = p1 - p0, e2 = p2 - p0;
+    Vec3d n = cross(e1, e2);
+    double nl = length(n);
+    TriFrame& fr = frames_[t];
+    fr.ng = nl > 0 ? Vec3f(n / nl) : Vec3f(0, 0, 1);
+    fr.uv_ok = false;
+    if (has_uv) {
+      Vec2f a = mesh_.uvs[f[0]], b = mesh_.uvs[f[1]], c = mesh_.uvs[f[2]];
+      for (Vec2f q : {a, b, c}) {
+        uv_bounds_.lo.x = std::min(uv_bounds_.lo.x, q.x);
+        uv_bounds_.lo.y = std::min(uv_bounds_.lo.y, q.y);
+        uv_bounds_.hi.x = std::max(uv_bounds_.hi.x, q.x);
+        uv_bounds_.hi.y = std::max(uv_bounds_.hi.y, q.y);
+      }
+      double du1 = b.x - a.x, dv1 = b.y - a.y, du2 = c.x - a.x, dv2 = c.y - a.y;
+      double det = du1 * dv2 - du2 * dv1;
+      double uv_scale = std::fabs(du1 * dv1) + std::fabs(du2 * dv2) + du1 * du1 + dv2 * dv2 + 1e-30;
+      if (std::fabs(det) > 1e-9 * uv_scale && nl > 0) {
+        Vec3d pu = (e1 * dv2 - e2 * dv1) / det;
+        Vec3d pv = (e2 * du1 - e1 * du2) / det;
+        if (isFinite(pu) && isFinite(pv)) {
+          fr.dpdu = Vec3f(pu);
+          fr.dpdv = Vec3f(pv);
+          fr.uv_ok = true;
+        }
+      }
+    }
+    if (!fr.uv_ok) {
+      Frame on = Frame::fromNormal(fr.ng);
+      fr.dpdu = on.t;
+      fr.dpdv = on.b;
+      ++degenerate_uv_;
+    }
+  }
+}
+
+PartGeometry::~PartGeometry() {
+  if (scene_) rtcReleaseScene(scene_);
+}
+
+}  // namespace dg

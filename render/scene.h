@@ -1,0 +1,49 @@
+// The Embree side: one device per process, one BVH per part built once and shared by every sample
+// that renders that part.
+#pragma once
+#include <memory>
+#include <vector>
+
+#include <embree3/rtcore.h>
+
+#include "defects/defect.h"
+#include "render/mesh.h"
+
+namespace dg {
+
+RTCDevice embreeDevice();  // created on first use, lives for the process
+
+class PartGeometry {
+ public:
+  explicit PartGeometry(TriangleMesh mesh);
+  ~PartGeometry();
+  PartGeometry(const PartGeometry&) = delete;
+  PartGeometry& operator=(const PartGeometry&) = delete;
+
+  RTCScene scene() const { return scene_; }
+  const TriangleMesh& mesh() const { return mesh_; }
+
+  // Per triangle: the exact derivatives of position with respect to the UV chart (mm per UV mm),
+  // the unit geometric normal (from the winding), and whether the UV triangle is usable. For a
+  // degenerate UV triangle uv_ok is false and dpdu/dpdv are an arbitrary orthonormal tangent pair.
+  struct TriFrame {
+    Vec3f dpdu, dpdv, ng;
+    bool uv_ok;
+  };
+  const TriFrame& frame(unsigned prim) const { return frames_[prim]; }
+  size_t degenerateUvCount() const { return degenerate_uv_; }
+  Box2 uvBounds() const { return uv_bounds_; }
+  float boundingRadius() const { return radius_; }
+  Vec3f boundingCenter() const { return center_; }
+
+ private:
+  TriangleMesh mesh_;
+  RTCScene scene_ = nullptr;
+  std::vector<TriFrame> frames_;
+  size_t degenerate_uv_ = 0;
+  Box2 uv_bounds_;
+  Vec3f center_;
+  float radius_ = 0;
+};
+
+}  // namespace dg

@@ -1,0 +1,270 @@
+#!/usr/bin/env python3
+"""End-to-end tests of the defectgen command line: every shipped config, determinism across
+thread counts and shards, --resume, the COCO file checked by an independent reader, and bad input
+(clear message, exit status 2, no output folder)."""
+
+import argparse
+import filecmp
+import glob
+import json
+import os
+import shutil
+import subprocess
+import sys
+import unittest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+import coco_reader  # noqa: E402
+
+ARGS = None
+
+
+def run(*args, ok=True):
+    p = subprocess.run([ARGS.binary] + list(args), capture_output=True, text=True, timeout=600)
+    if ok and p.returncode != 0:
+        raise AssertionError("defectgen %s failed (%d):\n%s%s" % (" ".join(args), p.returncode, p.stdout, p.stderr))
+    return p
+
+
+def work(name):
+    d = os.path.join(ARGS.work, name)
+    shutil.rmtree(d, ignore_errors=True)
+    os.makedirs(d)
+    return d
+
+
+def tree_files(root, skip=("manifest.json",)):
+    out = []
+    for dirpath, _, files in os.walk(root):
+        for f in files:
+            rel = os.path.relpath(os.path.join(dirpath, f), root)
+            if rel not in skip:
+                out.append(rel)
+    return sorted(out)
+
+
+def assert_same_tree(tc, a, b):
+    fa, fb = tree_files(a), tree_files(b)
+    tc.assertEqual(fa, fb)
+    for f in fa:
+        tc.assertTrue(filecmp.cmp(os.path.join(a, f), os.path.join(b, f), shallow=False), "differs: " + f)
+
+
+SMALL = """seed: 11
+count: 4
+part:
+  type: plate
+  width_mm: 300
+  height_mm: 200
+material:
+  type: car_paint
+  base_color: [{uniform: [0.1, 0.8]}, 0.2, 0.1]
+lights:
+  - type: dome
+    radiance: [0.3, 0.3, 0.3]
+  - type: bar
+    elevation_deg: 15
+    radiance: [60, 60, 60]
+camera:
+  fov_deg: 40
+  position: [{uniform: [-30, 30]}, -40, 420]
+render:
+  resolution: [96, 72]
+  spp: 2
+  max_bounces: 2
+  exr: true
+  depth: true
+  normals: true
+defects:
+  - type: dent
+    count: {uniform: [1, 3]}
+    radius_mm: {uniform: [10, 25]}
+    depth_mm: 1.0
+    region: [0.2, 0.2, 0.8, 0.8]
+"""
+
+
+class Generate(unittest.TestCase):
+    def small_config(self, d):
+        p = os.path.join(d, "small.yaml")
+        with open(p, "w") as f:
+            f.write(SMALL)
+        return p
+
+    def test_every_shipped_config_runs_and_its_coco_file_checks_out(self):
+        configs = sorted(glob.glob(os.path.join(ARGS.source, "configs", "*.yaml")))
+        self.assertGreater(len(configs), 0)
+        for cfg in configs:
+            with self.subTest(cfg=os.path.basename(cfg)):
+                out = os.path.join(work("configs"), os.path.splitext(os.path.basename(cfg))[0])
+                run("generate", cfg, "--out", out, "--count", "2", "--scale", "0.25", "--spp", "2", "--quiet")
+                for i in range(2):
+                    self.assertTrue(os.path.isfile(os.path.join(out, "images", "%06d.png" % i)))
+                    self.assertTrue(os.path.isfile(os.path.join(out, "samples", "%06d.json" % i)))
+                summary = coco_reader.check_dataset(out)
+                self.assertEqual(summary["images"], 2)
+                man = json.load(open(os.path.join(out, "manifest.json")))
+                self.assertEqual(man["samples_complete"], 2)
+                for lib in ("embree", "opencv", "openimageio", "openexr", "cgal"):
+                    self.assertIn(lib, man["versions"])
+
+    def test_dataset_contents(self):
+        d = work("contents")
+        out = os.path.join(d, "out")
+        run("generate", self.small_config(d), "--out", out, "--quiet")
+        summary = coco_reader.check_dataset(out)
+        self.assertEqual(summary["images"], 4)
+        self.assertGreater(summary["annotations"], 0)
+        coco = json.load(open(os.path.join(out, "annotations.json")))
+        self.assertEqual([c["name"] for c in coco["categories"]], ["dent", "scratch", "rust", "patina"])
+        for a in coco["annotations"]:
+            self.assertEqual(a["category_id"], 1)
+            self.assertIn("radius_mm", a["attributes"])
+        meta = json.load(open(os.path.join(out, "samples", "000000.json")))
+        for key in ("material.base_color[0]", "camera.position[0]", "defects[0].count"):
+            self.assertIn(key, meta["sampled"])
+        self.assertEqual(len(meta["camera"]["K"]), 3)
+        self.assertEqual(len(meta["camera"]["distortion"]), 5)
+        # The EXR exists with the requested layers (checked by name in its header).
+        exr = open(os.path.join(out, "images", "000000.exr"), "rb").read()
+        for name in (b"depth.Z", b"normal.X", b"mask.coverage", b"R\x00"):
+            self.assertIn(name, exr)
+        # No temporary file is left behind.
+        self.assertEqual([f for f in tree_files(out) if os.path.basename(f).startswith(".tmp")], [])
+
+    def test_same_bytes_whatever_the_thread_count_and_shards(self):
+        d = work("determinism")
+        cfg = self.small_config(d)
+        a, b, c = (os.path.join(d, n) for n in ("t1", "t2", "shards"))
+        run("generate", cfg, "--out", a, "--threads", "1", "--quiet")
+        run("generate", cfg, "--out", b, "--threads", "2", "--quiet")
+        assert_same_tree(self, a, b)
+        run("generate", cfg, "--out", c, "--shard", "0/2", "--quiet")
+        run("generate", cfg, "--out", c, "--shard", "1/2", "--quiet")
+        assert_same_tree(self, a, c)
+
+    def test_resume_gives_the_same_bytes_as_an_uninterrupted_run(self):
+        d = work("resume")
+        cfg = self.small_config(d)
+        whole, cut = os.path.join(d, "whole"), os.path.join(d, "cut")
+        run("generate", cfg, "--out", whole, "--quiet")
+        run("generate", cfg, "--out", cut, "--quiet")
+        # Interrupt the run after sample 1: the later samples are missing or half-written.
+        for i in (2, 3):
+            for f in glob.glob(os.path.join(cut, "*", "%06d*" % i)):
+                os.remove(f)
+        with open(os.path.join(cut, "images", ".tmp-999-000002.png"), "wb") as f:
+            f.write(b"half")
+        os.remove(os.path.join(cut, "annotations.json"))
+        p = run("generate", cfg, "--out", cut, ok=False)
+        self.assertEqual(p.returncode, 2, p.stderr)
+        self.assertIn("--resume", p.stderr)
+        p = run("generate", cfg, "--out", cut, "--resume")
+        self.assertIn("2 sample(s) rendered, 2 skipped", p.stderr)
+        os.remove(os.path.join(cut, "images", ".tmp-999-000002.png"))
+        assert_same_tree(self, whole, cut)
+
+
+class BadInput(unittest.TestCase):
+    def expect_error(self, args, *fragments, out=None):
+        p = run(*args, ok=False)
+        self.assertEqual(p.returncode, 2, "exit status for %s:\n%s" % (args, p.stderr))
+        for frag in fragments:
+            self.assertIn(frag, p.stderr)
+        self.assertNotIn("internal error", p.stderr)
+        self.assertEqual(p.stderr.count("\n"), 1, "one clear message expected:\n" + p.stderr)
+        if out:
+            self.assertFalse(os.path.exists(out), "output folder left behind: " + out)
+        return p
+
+    def config(self, d, text, name="bad.yaml"):
+        p = os.path.join(d, name)
+        with open(p, "w") as f:
+            f.write(text)
+        return p
+
+    def test_config_errors(self):
+        d = work("bad_config")
+        out = os.path.join(d, "out")
+        base = SMALL
+        cases = [
+            ("malformed", base.replace("count: 4", "count: [4"), ["malformed YAML"]),
+            ("unknown_key", base.replace("max_bounces", "max_bounce"), ["bad.yaml:22:3", "did you mean 'max_bounces'"]),
+            ("wrong_type", base.replace("spp: 2", "spp: two"), ["bad.yaml:21:8", "expected a number"]),
+            ("out_of_range", base.replace("elevation_deg: 15", "elevation_deg: 95"), ["bad.yaml:14:20", "out of range"]),
+            ("missing_file", base.replace("type: plate", "type: mesh\n  path: nowhere.obj").replace(
+                "  width_mm: 300\n  height_mm: 200\n", ""), ["file not found", "nowhere.obj"]),
+        ]
+        for name, text, frags in cases:
+            with self.subTest(name):
+                self.expect_error(["generate", self.config(d, text), "--out", out], *frags, out=out)
+                self.expect_error(["validate", self.config(d, text)], *frags)
+        self.expect_error(["generate", os.path.join(d, "absent.yaml"), "--out", out], "absent.yaml", out=out)
+
+    def test_mesh_errors(self):
+        d = work("bad_mesh")
+        out = os.path.join(d, "out")
+        meshes = {
+            "nan.obj": "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n",
+            "degenerate.obj": "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 1 1 2\n",
+            # A closed tetrahedron without UVs cannot be flattened into one chart.
+            "closed.off": "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n",
+        }
+        expect = {"nan.obj": ["nan.obj"], "degenerate.obj": ["degenerate.obj", "degenerate"],
+                  "closed.off": ["closed.off", "parameteriz"]}
+        for name, text in meshes.items():
+            with self.subTest(name):
+                with open(os.path.join(d, name), "w") as f:
+                    f.write(text)
+                cfg = SMALL.replace("type: plate\n  width_mm: 300\n  height_mm: 200", "type: mesh\n  path: " + name)
+                self.expect_error(["generate", self.config(d, cfg), "--out", out], *expect[name], out=out)
+
+    def test_flag_errors(self):
+        d = work("bad_flags")
+        cfg = self.config(d, SMALL, "ok.yaml")
+        out = os.path.join(d, "out")
+        self.expect_error(["generate", cfg, "--out", out, "--shard", "2/2"], "--shard", out=out)
+        self.expect_error(["generate", cfg, "--out", out, "--shard", "x"], "--shard", out=out)
+        p = run("generate", cfg, "--out", out, "--count", "0", ok=False)
+        self.assertEqual(p.returncode, 2)
+        p = run("generate", cfg, "--bogus", ok=False)
+        self.assertEqual(p.returncode, 2)
+        self.assertFalse(os.path.exists(out))
+
+    def test_foreign_output_folder_is_refused(self):
+        d = work("foreign")
+        out = os.path.join(d, "out")
+        os.makedirs(out)
+        with open(os.path.join(out, "precious.txt"), "w") as f:
+            f.write("keep me")
+        self.expect_error(["generate", self.config(d, SMALL, "ok.yaml"), "--out", out], "not empty")
+        self.assertEqual(os.listdir(out), ["precious.txt"])
+
+
+class Commands(unittest.TestCase):
+    def test_validate_prints_defaults_and_units(self):
+        p = run("validate", os.path.join(ARGS.source, "configs", "quickstart.yaml"))
+        self.assertIn("max_bounces: 3", p.stdout)
+        self.assertIn("# mm, default", p.stdout)
+        self.assertIn("exr: false", p.stdout)
+
+    def test_version(self):
+        p = run("--version")
+        for lib in ("defectgen", "embree", "opencv", "openimageio", "openexr", "cgal", "tbb"):
+            self.assertIn(lib, p.stdout)
+
+
+def main():
+    global ARGS
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--binary", required=True)
+    ap.add_argument("--source", required=True)
+    ap.add_argument("--work", required=True)
+    ARGS, rest = ap.parse_known_args()
+    os.makedirs(ARGS.work, exist_ok=True)
+    unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,193 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include "core/error.h"
+#include "core/fsutil.h"
+#include "generator/config.h"
+
+using namespace dg;
+
+namespace {
+
+const char* kMinimal = R"(part:
+  type: plate
+lights:
+  - type: dome
+camera:
+  fov_deg: 40
+  position: [0, 0, 500]
+)";
+
+// Returns the InputError's message, or "" if parsing succeeded.
+std::string errorOf(const std::string& yaml) {
+  try {
+    parseConfig(yaml, "test.yaml");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(Config, MinimalConfigGetsEveryDefault) {
+  Config c = parseConfig(kMinimal, "test.yaml");
+  EXPECT_EQ(c.root["part"]["type"].str(), "plate");
+  EXPECT_DOUBLE_EQ(c.root["part"]["width_mm"].num(), 300);
+  EXPECT_TRUE(c.root["part"]["width_mm"].defaulted);
+  EXPECT_EQ(c.root["material"]["type"].str(), "car_paint");
+  EXPECT_DOUBLE_EQ(c.root["render"]["spp"].num(), 16);
+  EXPECT_EQ(c.root["render"]["resolution"].items.size(), 2u);
+  EXPECT_TRUE(c.root["defects"].items.empty());
+  EXPECT_EQ(c.root["camera"]["up"].items[1].num(), 1.0);
+  std::string d = describeConfig(c);
+  EXPECT_NE(d.find("width_mm: 300"), std::string::npos) << d;
+  EXPECT_NE(d.find("# mm, default"), std::string::npos) << d;
+  EXPECT_NE(d.find("spp: 16"), std::string::npos) << d;
+}
+
+TEST(Config, MalformedYamlNamesLineAndColumn) {
+  std::string e = errorOf("part:\n  type: plate\n  width_mm: [1, 2\n");
+  EXPECT_NE(e.find("test.yaml:"), std::string::npos) << e;
+  EXPECT_NE(e.find("malformed YAML"), std::string::npos) << e;
+}
+
+TEST(Config, UnknownKeySuggestsClosest) {
+  std::string e = errorOf(std::string(kMinimal) + "render:\n  spp: 4\n  max_bounce: 3\n");
+  EXPECT_NE(e.find("test.yaml:10:3"), std::string::npos) << e;
+  EXPECT_NE(e.find("unknown key 'max_bounce'"), std::string::npos) << e;
+  EXPECT_NE(e.find("did you mean 'max_bounces'"), std::string::npos) << e;
+  std::string e2 = errorOf(std::string(kMinimal) + "defects:\n  - type: dnet\n");
+  EXPECT_NE(e2.find("did you mean 'dent'"), std::string::npos) << e2;
+}
+
+TEST(Config, WrongTypeIsReported) {
+  std::string e = errorOf(std::string(kMinimal) + "render:\n  spp: many\n");
+  EXPECT_NE(e.find("test.yaml:9:8"), std::string::npos) << e;
+  EXPECT_NE(e.find("expected a number"), std::string::npos) << e;
+  std::string e2 = errorOf(std::string(kMinimal) + "render:\n  spp: 2.5\n");
+  EXPECT_NE(e2.find("expected an integer"), std::string::npos) << e2;
+  std::string e3 = errorOf(std::string(kMinimal) + "render:\n  exr: maybe\n");
+  EXPECT_NE(e3.find("expected true or false"), std::string::npos) << e3;
+  std::string e4 = errorOf(std::string(kMinimal) + "render:\n  resolution: [512]\n");
+  EXPECT_NE(e4.find("expected a list of 2 numbers"), std::string::npos) << e4;
+}
+
+TEST(Config, OutOfRangeIsReportedWithRangeAndUnit) {
+  std::string e = errorOf(std::string(kMinimal) + "defects:\n  - type: dent\n    radius_mm: -3\n");
+  EXPECT_NE(e.find("test.yaml:10:16"), std::string::npos) << e;
+  EXPECT_NE(e.find("'defects[0].radius_mm'"), std::string::npos) << e;
+  EXPECT_NE(e.find("out of range"), std::string::npos) << e;
+  EXPECT_NE(e.find("mm"), std::string::npos) << e;
+  // Distribution bounds are range-checked too.
+  std::string e2 = errorOf(std::string(kMinimal) + "defects:\n  - type: dent\n    radius_mm: {uniform: [1, 9000]}\n");
+  EXPECT_NE(e2.find("out of range"), std::string::npos) << e2;
+}
+
+TEST(Config, MissingFileAndMissingRequiredKeys) {
+  try {
+    loadConfig("/nonexistent/dir/x.yaml");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/x.yaml"), std::string::npos);
+  }
+  std::string e = errorOf("lights:\n  - type: dome\ncamera:\n  fov_deg: 40\n  position: [0, 0, 500]\n");
+  EXPECT_NE(e.find("missing required key 'part'"), std::string::npos) << e;
+  std::string e2 = errorOf("part:\n  type: mesh\n  path: no_such_mesh.obj\nlights:\n  - type: dome\ncamera:\n"
+                           "  fov_deg: 40\n  position: [0, 0, 500]\n");
+  EXPECT_NE(e2.find("test.yaml:3:9"), std::string::npos) << e2;
+  EXPECT_NE(e2.find("file not found"), std::string::npos) << e2;
+}
+
+TEST(Config, CrossFieldRules) {
+  std::string both = "part:\n  type: plate\nlights:\n  - type: dome\ncamera:\n  fov_deg: 40\n"
+                     "  intrinsics: [500, 500, 256, 256]\n  position: [0, 0, 500]\n";
+  EXPECT_NE(errorOf(both).find("exactly one of"), std::string::npos);
+  std::string ring = std::string(kMinimal) + "  - type: ring\n    radius_mm: 10\n    inner_radius_mm: 20\n";
+  // (appended to the camera block, so put lights in properly instead)
+  std::string ring_cfg = "part:\n  type: plate\nlights:\n  - type: ring\n    radius_mm: 10\n    inner_radius_mm: 20\n"
+                         "camera:\n  fov_deg: 40\n  position: [0, 0, 500]\n";
+  EXPECT_NE(errorOf(ring_cfg).find("smaller than radius_mm"), std::string::npos) << errorOf(ring_cfg);
+  std::string two_env = "part:\n  type: plate\nlights:\n  - type: dome\n  - type: dome\n"
+                        "camera:\n  fov_deg: 40\n  position: [0, 0, 500]\n";
+  EXPECT_NE(errorOf(two_env).find("only one environment"), std::string::npos);
+  EXPECT_NE(errorOf(std::string(kMinimal) + "part2: 1\n").find("did you mean 'part'"), std::string::npos);
+  // The part is fixed for a dataset: no distributions there.
+  std::string rnd = "part:\n  type: plate\n  width_mm: {uniform: [100, 200]}\nlights:\n  - type: dome\n"
+                    "camera:\n  fov_deg: 40\n  position: [0, 0, 500]\n";
+  EXPECT_NE(errorOf(rnd).find("must be a constant"), std::string::npos) << errorOf(rnd);
+}
+
+TEST(Config, DistributionsSampleInRangeAndAreRecorded) {
+  std::string y = std::string(kMinimal) +
+                  "material:\n  type: car_paint\n  flake_amount: {normal: {mean: 0.5, std: 2}}\n"
+                  "  clear_coat_roughness: {loguniform: [0.02, 0.5]}\n"
+                  "defects:\n  - type: dent\n    count: {uniform: [2, 4]}\n"
+                  "    radius_mm: {choice: [5, 10, 20], weights: [1, 0, 3]}\n";
+  Config c = parseConfig(y, "t.yaml");
+  Rng rng(42, Stream::Test);
+  std::map<int, int> counts, radii;
+  double lo = 1e9, hi = -1e9;
+  for (int i = 0; i < 4000; ++i) {
+    nlohmann::json rec;
+    counts[int(sampleNumber(c.root["defects"].items[0]["count"], rng, rec))]++;
+    radii[int(sampleNumber(c.root["defects"].items[0]["radius_mm"], rng, rec))]++;
+    double f = sampleNumber(c.root["material"]["flake_amount"], rng, rec);
+    EXPECT_GE(f, 0.0);  // clamped to the field's range [0, 1]
+    EXPECT_LE(f, 1.0);
+    double r = sampleNumber(c.root["material"]["clear_coat_roughness"], rng, rec);
+    lo = std::min(lo, r);
+    hi = std::max(hi, r);
+    ASSERT_TRUE(rec.contains("defects[0].count"));
+    ASSERT_TRUE(rec.contains("material.flake_amount"));
+  }
+  EXPECT_EQ(counts.size(), 3u);  // 2, 3 and 4 all occur
+  for (auto& kv : counts) EXPECT_NEAR(kv.second / 4000.0, 1.0 / 3.0, 0.04) << kv.first;
+  EXPECT_EQ(radii.count(10), 0u);  // weight 0
+  EXPECT_NEAR(radii[20] / 4000.0, 0.75, 0.03);
+  EXPECT_GE(lo, 0.02);
+  EXPECT_LE(hi, 0.5);
+  EXPECT_LT(lo, 0.03);
+  EXPECT_GT(hi, 0.4);
+  // Bad distributions are reported.
+  EXPECT_NE(errorOf(std::string(kMinimal) + "render:\n  exposure_stops: {unifrom: [0, 1]}\n").find("did you mean 'uniform'"),
+            std::string::npos);
+  EXPECT_NE(errorOf(std::string(kMinimal) + "render:\n  exposure_stops: {uniform: [2, 1]}\n").find("min <= max"),
+            std::string::npos);
+}
+
+TEST(Config, SameSeedSameDraws) {
+  std::string y = std::string(kMinimal) + "render:\n  exposure_stops: {uniform: [-1, 1]}\n";
+  Config c = parseConfig(y, "t.yaml");
+  Rng a(5, Stream::Scene, 3), b(5, Stream::Scene, 3), d(5, Stream::Scene, 4);
+  nlohmann::json r;
+  double x = sampleNumber(c.root["render"]["exposure_stops"], a, r);
+  EXPECT_EQ(x, sampleNumber(c.root["render"]["exposure_stops"], b, r));
+  EXPECT_NE(x, sampleNumber(c.root["render"]["exposure_stops"], d, r));
+}
+
+TEST(Config, ReferenceDocIsUpToDate) {
+  std::string path = std::string(DG_SOURCE_DIR) + "/docs/config.md";
+  ASSERT_TRUE(std::filesystem::exists(path)) << "run: build/defectgen config-reference > docs/config.md";
+  EXPECT_EQ(readTextFile(path), configReferenceMarkdown())
+      << "docs/config.md is stale; run: build/defectgen config-reference > docs/config.md";
+}
+
+TEST(Config, EveryShippedConfigValidates) {
+  int n = 0;
+  for (auto& e : std::filesystem::directory_iterator(std::string(DG_SOURCE_DIR) + "/configs")) {
+    if (e.path().extension() != ".yaml") continue;
+    EXPECT_NO_THROW(loadConfig(e.path().string())) << e.path();
+    ++n;
+  }
+  EXPECT_GE(n, 1);
+}
+
+TEST(Config, EditDistance) {
+  EXPECT_EQ(editDistance("kitten", "sitting"), 3u);
+  EXPECT_EQ(editDistance("", "abc"), 3u);
+  EXPECT_EQ(editDistance("same", "same"), 0u);
+}

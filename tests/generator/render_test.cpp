@@ -1,0 +1,118 @@
+// Renderer checks through the real pipeline: config -> dataset -> sample -> render.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/parallel.h"
+#include "generator/scene_builder.h"
+
+using namespace dg;
+
+namespace {
+
+// A 300 x 200 mm plate seen head-on from 500 mm with fx = fy = 1000 px: 2 px per mm.
+std::string plateConfig(const std::string& dent, int res = 512, int spp = 2) {
+  return "part:\n  type: plate\n  width_mm: 300\n  height_mm: 200\n"
+         "material:\n  type: metal\n  metal: steel\n  roughness: 0.3\n"
+         "lights:\n  - type: dome\n    radiance: [1, 1, 1]\n"
+         "  - type: ring\n    radius_mm: 60\n    inner_radius_mm: 45\n"
+         "camera:\n  intrinsics: [1000, 1000, " + std::to_string(res / 2.0 - 0.5) + ", " +
+         std::to_string(res / 2.0 - 0.5) + "]\n  position: [0, 0, 500]\n  target: [0, 0, 0]\n  up: [0, 1, 0]\n"
+         "render:\n  resolution: [" + std::to_string(res) + ", " + std::to_string(res) + "]\n  spp: " +
+         std::to_string(spp) + "\n  max_bounces: 2\n" + dent;
+}
+
+std::string oneDent(double radius, double depth, double thr = 0.1) {
+  return "defects:\n  - type: dent\n    count: 1\n    radius_mm: " + std::to_string(radius) + "\n    depth_mm: " +
+         std::to_string(depth) + "\n    mask_threshold: " + std::to_string(thr) +
+         "\n    region: [0.5, 0.5, 0.500001, 0.500001]\n";
+}
+
+RenderFrame renderConfig(const std::string& yaml, bool rgb, bool coverage, Sample* keep = nullptr) {
+  Dataset ds = prepareDataset(parseConfig(yaml, "test.yaml"));
+  Sample s = makeSample(ds, 1, 0);
+  s.settings.want_rgb = rgb;
+  s.settings.want_coverage = coverage;
+  RenderFrame f = render(s.scene, s.settings);
+  if (keep) *keep = std::move(s);
+  return f;
+}
+
+}  // namespace
+
+TEST(Render, DentMaskAreaMatchesAnalyticAreaHeadOn) {
+  // Mask radius R sqrt(1 - sqrt(thr)) mm, imaged at 2 px/mm.
+  for (double R : {20.0, 40.0}) {
+    RenderFrame f = renderConfig(plateConfig(oneDent(R, 1.0)), false, true);
+    int n = 0;
+    for (int y = 0; y < f.coverage.height; ++y)
+      for (int x = 0; x < f.coverage.width; ++x) n += f.coverage(x, y) >= 0.5f && f.dominant(x, y) == 1;
+    double r_px = R * std::sqrt(1.0 - std::sqrt(0.1)) * 2.0;
+    double expected = kPi * r_px * r_px;
+    EXPECT_NEAR(n / expected, 1.0, 0.01) << "R = " << R << ": " << n << " px vs " << expected;
+  }
+}
+
+TEST(Render, ZeroDepthDentLeavesTheImageUnchanged) {
+  RenderFrame a = renderConfig(plateConfig("", 64, 2), true, false);
+  RenderFrame b = renderConfig(plateConfig(oneDent(30, 0.0), 64, 2), true, false);
+  ASSERT_EQ(a.rgb.data.size(), b.rgb.data.size());
+  EXPECT_EQ(a.rgb.data, b.rgb.data);
+  // ... while a real dent changes pixels inside its support and none outside it.
+  RenderFrame c = renderConfig(plateConfig(oneDent(30, 2.0), 64, 2), true, false);
+  int changed_in = 0, changed_out = 0;
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) {
+      double dx = (x - 31.5) / 2.0, dy = (y - 31.5) / 2.0;  // mm from the centre
+      bool diff = std::fabs(c.rgb(x, y, 1) - a.rgb(x, y, 1)) > 0;
+      if (std::sqrt(dx * dx + dy * dy) < 29) changed_in += diff;
+      else if (std::sqrt(dx * dx + dy * dy) > 31) changed_out += diff;
+    }
+  EXPECT_GT(changed_in, 500);
+  EXPECT_EQ(changed_out, 0);
+}
+
+TEST(Render, ImageDoesNotDependOnThreadCount) {
+  std::string cfg = plateConfig(oneDent(25, 1.0), 96, 3);
+  RenderFrame one, two;
+  {
+    ThreadLimit l(1);
+    one = renderConfig(cfg, true, true);
+  }
+  {
+    ThreadLimit l(2);
+    two = renderConfig(cfg, true, true);
+  }
+  EXPECT_EQ(one.rgb.data, two.rgb.data);
+  EXPECT_EQ(one.dominant.data, two.dominant.data);
+  EXPECT_EQ(one.coverage.data, two.coverage.data);
+}
+
+TEST(Render, HiddenOrOffFrameDefectsAreNotLabelled) {
+  // The dent sits outside the camera's view: no pixel may carry its label.
+  std::string off = "defects:\n  - type: dent\n    count: 1\n    radius_mm: 10\n    depth_mm: 1\n"
+                    "    region: [0.01, 0.01, 0.0100001, 0.0100001]\n";
+  std::string cfg = plateConfig(off, 64, 1);
+  // Narrow the view to the middle of the plate (fx = 4000: 64 px cover 8 mm).
+  cfg.replace(cfg.find("intrinsics: [1000, 1000"), 23, "intrinsics: [4000, 4000");
+  RenderFrame f = renderConfig(cfg, false, true);
+  for (uint16_t v : f.dominant.data) ASSERT_EQ(v, 0);
+}
+
+TEST(Render, WhiteFurnaceOfTheIntegrator) {
+  // A plastic plate of IOR ~1 (pure Lambert, albedo 0.8) under a uniform white dome, seen from the
+  // front: every bounce keeps 80 %, so the radiance is below 1 and close to the geometric series
+  // limited by the path length. With max_bounces 1: L = 0.8 (direct only, a plate sees the whole
+  // hemisphere of the dome).
+  std::string cfg = "part:\n  type: plate\n  width_mm: 300\n  height_mm: 200\n"
+                    "material:\n  type: plastic\n  base_color: [0.8, 0.8, 0.8]\n  ior: 1.0001\n"
+                    "lights:\n  - type: dome\n    radiance: [1, 1, 1]\n"
+                    "camera:\n  intrinsics: [2000, 2000, 15.5, 15.5]\n  position: [0, 0, 500]\n"
+                    "render:\n  resolution: [32, 32]\n  spp: 64\n  max_bounces: 1\n";
+  RenderFrame f = renderConfig(cfg, true, false);
+  double sum = 0;
+  for (float v : f.rgb.data) sum += v;
+  double mean = sum / f.rgb.data.size();
+  EXPECT_NEAR(mean, 0.8, 0.01);
+  for (float v : f.rgb.data) EXPECT_LT(v, 1.0f);
+}

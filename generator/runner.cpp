@@ -1,5 +1,6 @@
 #include "generator/runner.h"
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -233,12 +234,16 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   int complete = 0;
   for (int64_t i = 0; i < count; ++i) complete += sampleComplete(out, uint64_t(i));
   manifest["samples_complete"] = complete;
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
   manifest["last_run"] = {{"shard", std::to_string(o.shard_index) + "/" + std::to_string(o.shard_count)},
                           {"threads", o.threads},
                           {"rendered", res.rendered},
                           {"skipped", res.skipped},
                           {"timings", {{"total_s", res.seconds}, {"part_setup_s", part_s},
-                                       {"render_s", render_total}, {"samples", per_sample}}}};
+                                       {"render_s", render_total},
+                                       {"peak_rss_mib", double(ru.ru_maxrss) / 1024.0},
+                                       {"samples", per_sample}}}};
   writeTextAtomically(out / "manifest.json", manifest.dump(2) + "\n");
   if (!o.quiet)
     std::fprintf(stderr, "defectgen: %d sample(s) rendered, %d skipped, in %.1f s; dataset in %s\n", res.rendered,

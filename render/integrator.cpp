@@ -179,7 +179,7 @@ class Tracer {
     sp.ns = n;
   }
 
-  Rgb trace(DiffRay ray, Rng& rng) const {
+  Rgb trace(DiffRay ray, Rng& rng, uint64_t& nrays) const {
     Rgb L(0.0f), beta(1.0f);
     float prev_pdf = 0;
     bool prev_specular = true;  // camera rays count as "specular": no MIS on directly seen lights
@@ -187,6 +187,7 @@ class Tracer {
     RTCScene scene = s_.part->scene();
     for (int depth = 0;; ++depth) {
       Hit h = intersect(scene, ray.o, ray.d, 0.0f, kInf);
+      ++nrays;
       // Emitters are not in the BVH; test them analytically against the part's hit distance.
       int light_hit = -1;
       float tl = h.t;
@@ -238,6 +239,7 @@ class Tracer {
         if (wi.z <= 0 || !(pl > 0)) continue;
         Rgb f = evalBsdf(m, wo, wi);
         if (maxComponent(f) <= 0) continue;
+        ++nrays;
         if (occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f))) continue;
         float w = powerHeuristic(pl, pdfBsdf(m, wo, wi));
         L += beta * f * al.radiance * (wi.z * w / pl);
@@ -250,7 +252,7 @@ class Tracer {
         Vec3f wi = fr.toLocal(wl);
         if (pe > 0 && wi.z > 0 && dot(wl, sp.ng) > 0 && maxComponent(Le) > 0) {
           Rgb f = evalBsdf(m, wo, wi);
-          if (maxComponent(f) > 0 && !occluded(scene, origin, wl, 0.0f, kInf)) {
+          if (maxComponent(f) > 0 && (++nrays, !occluded(scene, origin, wl, 0.0f, kInf))) {
             float w = powerHeuristic(pe, pdfBsdf(m, wo, wi));
             L += beta * f * Le * (wi.z * w / pe);
           }
@@ -338,7 +340,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
             Rng rng(hashKey(st.seed, uint64_t(Stream::Pixel), st.sample_index, pixel * 65536u + s));
             // Pixel (x, y) covers [x - 0.5, x + 0.5] in OpenCV's convention; box filter.
             float px = x - 0.5f + rng.uniform(), py = y - 0.5f + rng.uniform();
-            Rgb c = tracer.trace(cameraRay(gen, px, py), rng);
+            Rgb c = tracer.trace(cameraRay(gen, px, py), rng, local_rays);
             if (isFinite(c)) sum += c;
           }
           float* o = out.rgb.at(x, y);

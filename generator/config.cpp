@@ -79,6 +79,10 @@ Field vec(std::string key, int n, std::string unit, json def, double lo, double 
   f.element_type = elem;
   return f;
 }
+Field optional(Field f) {
+  f.required = false;
+  return f;
+}
 Field rgb(std::string key, json def, double hi, std::string doc) {
   return vec(std::move(key), 3, "linear RGB", std::move(def), 0, hi, std::move(doc));
 }
@@ -93,7 +97,7 @@ Field buildSchema() {
   Field root;
   root.key = "";
   root.type = FieldType::Object;
-  root.fields.push_back(integer("seed", "", 0, 0, 9.007199254740992e15,
+  root.fields.push_back(integer("seed", "", 0, 0, 1e15,
                                 "Master seed. Every random value of sample i is drawn from a "
                                 "counter-based stream keyed by (seed, i). `--seed` overrides it."));
   root.fields.push_back(integer("count", "samples", 10, 1, 1e7,
@@ -159,7 +163,7 @@ Field buildSchema() {
       micro};
   mat.variant_docs["car_paint"] = "Clear coat over a base coat of colour and metallic flakes.";
   mat.variants["metal"] = {enumeration("metal", metalNames(), "steel",
-                                       "Bare metal, by name; complex IOR per RGB channel (see docs/materials.md).",
+                                       "Bare metal, by name; complex IOR per RGB channel (see Metals below).",
                                        true),
                            num("roughness", "", 0.2, 0.02, 1, "Surface roughness."), micro};
   mat.variant_docs["metal"] = "Bare conductor with the exact Fresnel equations for its complex IOR.";
@@ -230,9 +234,8 @@ Field buildSchema() {
       vec("position", 3, "mm", nullptr, -1e5, 1e5, "Camera centre."),
       vec("target", 3, "mm", {0, 0, 0}, -1e5, 1e5, "Point the optical axis passes through."),
       vec("up", 3, "", {0, 1, 0}, -1, 1, "World direction that appears up in the image.")};
-  cam.fields[0].required = false;
+  cam.fields[0].required = false;  // exactly one of fov_deg, intrinsics, calibration (cross-checked)
   cam.fields[1].required = false;
-  cam.fields[4].required = true;
   root.fields.push_back(cam);
 
   // render
@@ -268,7 +271,10 @@ Field buildSchema() {
       num("mask_threshold", "fraction", 0.1, 0.0, 0.99,
           "Labelled where the depth is at least this fraction of the centre depth.", false, true),
       vec("region", 4, "fraction", {0, 0, 1, 1}, 0, 1,
-          "[u0, v0, u1, v1]: where centres may fall, as fractions of the part's UV extent.", false)};
+          "[u0, v0, u1, v1]: where centres may fall, as fractions of the part's UV extent. Centres "
+          "are drawn uniformly by area on the part's surface within it.", false),
+      optional(vec("center", 2, "fraction", nullptr, 0, 1,
+                   "[u, v]: a fixed centre, as fractions of the part's UV extent (instead of `region`)."))};
   def.variant_docs["dent"] = "Round dent, rendered by bump mapping (Blinn 1978) with a C1 "
                              "polynomial bowl profile.";
   root.fields.push_back(def);
@@ -922,6 +928,16 @@ std::string configReferenceMarkdown() {
   fieldTable(r.fields, "", o);
   for (const Field& f : r.fields)
     if (f.type == FieldType::Object || f.type == FieldType::List) sectionDoc(f, o);
+  o << "## Metals\n\nComplex index of refraction n + ik at the R, G, B channels, used with the exact "
+       "conductor Fresnel equations.\n\n| name | n (R, G, B) | k (R, G, B) | source |\n|---|---|---|---|\n";
+  auto f5 = [](float v) {
+    std::ostringstream s;
+    s << std::setprecision(5) << v;
+    return s.str();
+  };
+  for (const MetalIor& m : metalTable())
+    o << "| `" << m.name << "` | " << f5(m.eta.x) << ", " << f5(m.eta.y) << ", " << f5(m.eta.z) << " | "
+      << f5(m.k.x) << ", " << f5(m.k.y) << ", " << f5(m.k.z) << " | " << m.source << " |\n";
   return o.str();
 }
 

@@ -300,8 +300,27 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
       const Value& reg = d["region"];
       double u0 = reg.items[0].num(), v0 = reg.items[1].num(), u1 = reg.items[2].num(), v1 = reg.items[3].num();
       DentParams dp;
-      double fu = u0 + rng.uniformD() * (u1 - u0), fv = v0 + rng.uniformD() * (v1 - v0);
-      dp.center_uv = {float(uvb.lo.x + fu * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + fv * (uvb.hi.y - uvb.lo.y))};
+      // Centres are drawn uniformly by area on the part's surface, kept if they fall in the
+      // region (fractions of the UV extent), so a dent never lands off the part.
+      bool placed = false;
+      if (d.has("center")) {
+        double fu = sampleNumber(d["center"].items[0], rng, local), fv = sampleNumber(d["center"].items[1], rng, local);
+        dp.center_uv = {float(uvb.lo.x + fu * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + fv * (uvb.hi.y - uvb.lo.y))};
+        placed = true;
+      }
+      for (int attempt = 0; attempt < 10000 && !placed; ++attempt) {
+        double a = rng.uniformD(), b = rng.uniformD(), e = rng.uniformD();
+        Vec2f uv = ds.part->sampleSurfaceUv(a, b, e);
+        double fu = (uv.x - uvb.lo.x) / std::max(1e-9f, uvb.hi.x - uvb.lo.x);
+        double fv = (uv.y - uvb.lo.y) / std::max(1e-9f, uvb.hi.y - uvb.lo.y);
+        if (fu >= u0 && fu <= u1 && fv >= v0 && fv <= v1) {
+          dp.center_uv = uv;
+          placed = true;
+        }
+      }
+      if (!placed)
+        throw InputError(c.file, reg.line, reg.column,
+                         "'" + reg.path + "': no part surface found in this region of the UV chart");
       dp.radius_mm = float(sampleNumber(d["radius_mm"], rng, local));
       dp.depth_mm = float(sampleNumber(d["depth_mm"], rng, local));
       dp.mask_threshold = float(d["mask_threshold"].num());

@@ -1,5 +1,6 @@
 #include "render/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 #include <stdexcept>
@@ -52,6 +53,7 @@ PartGeometry::PartGeometry(TriangleMesh mesh) : mesh_(std::move(mesh)) {
     Vec3d e1 = p1 - p0, e2 = p2 - p0;
     Vec3d n = cross(e1, e2);
     double nl = length(n);
+    area_cdf_.push_back((area_cdf_.empty() ? 0.0 : area_cdf_.back()) + 0.5 * nl);
     TriFrame& fr = frames_[t];
     fr.ng = nl > 0 ? Vec3f(n / nl) : Vec3f(0, 0, 1);
     fr.uv_ok = false;
@@ -83,6 +85,17 @@ PartGeometry::PartGeometry(TriangleMesh mesh) : mesh_(std::move(mesh)) {
       ++degenerate_uv_;
     }
   }
+}
+
+Vec2f PartGeometry::sampleSurfaceUv(double u0, double u1, double u2) const {
+  if (area_cdf_.empty() || mesh_.uvs.empty()) return {0, 0};
+  double target = u0 * area_cdf_.back();
+  size_t t = size_t(std::upper_bound(area_cdf_.begin(), area_cdf_.end(), target) - area_cdf_.begin());
+  t = std::min(t, area_cdf_.size() - 1);
+  // Uniform barycentrics by the square-root warp (Osada et al. 2002, eq. 1).
+  double s = std::sqrt(u1), b1 = 1 - s, b2 = u2 * s, b0 = 1 - b1 - b2;
+  const uint32_t* f = &mesh_.indices[3 * t];
+  return mesh_.uvs[f[0]] * float(b0) + mesh_.uvs[f[1]] * float(b1) + mesh_.uvs[f[2]] * float(b2);
 }
 
 PartGeometry::~PartGeometry() {

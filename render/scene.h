@@ -34,12 +34,16 @@ class PartGeometry {
   size_t degenerateUvCount() const { return degenerate_uv_; }
   Box2 uvBounds() const { return uv_bounds_; }
   float boundingRadius() const { return radius_; }
+  // A point drawn uniformly by area on the surface, returned as its UV (mm); u0 picks the
+  // triangle, (u1, u2) the point in it.
+  Vec2f sampleSurfaceUv(double u0, double u1, double u2) const;
   Vec3f boundingCenter() const { return center_; }
 
  private:
   TriangleMesh mesh_;
   RTCScene scene_ = nullptr;
   std::vector<TriFrame> frames_;
+  std::vector<double> area_cdf_;  // cumulative triangle areas, normalised to end at 1
   size_t degenerate_uv_ = 0;
   Box2 uv_bounds_;
   Vec3f center_;

@@ -25,7 +25,7 @@ std::string plateConfig(const std::string& dent, int res = 512, int spp = 2) {
 std::string oneDent(double radius, double depth, double thr = 0.1) {
   return "defects:\n  - type: dent\n    count: 1\n    radius_mm: " + std::to_string(radius) + "\n    depth_mm: " +
          std::to_string(depth) + "\n    mask_threshold: " + std::to_string(thr) +
-         "\n    region: [0.5, 0.5, 0.500001, 0.500001]\n";
+         "\n    center: [0.5, 0.5]\n";
 }
 
 RenderFrame renderConfig(const std::string& yaml, bool rgb, bool coverage, Sample* keep = nullptr) {
@@ -91,7 +91,7 @@ TEST(Render, ImageDoesNotDependOnThreadCount) {
 TEST(Render, HiddenOrOffFrameDefectsAreNotLabelled) {
   // The dent sits outside the camera's view: no pixel may carry its label.
   std::string off = "defects:\n  - type: dent\n    count: 1\n    radius_mm: 10\n    depth_mm: 1\n"
-                    "    region: [0.01, 0.01, 0.0100001, 0.0100001]\n";
+                    "    center: [0.01, 0.01]\n";
   std::string cfg = plateConfig(off, 64, 1);
   // Narrow the view to the middle of the plate (fx = 4000: 64 px cover 8 mm).
   cfg.replace(cfg.find("intrinsics: [1000, 1000"), 23, "intrinsics: [4000, 4000");

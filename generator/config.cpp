@@ -334,7 +334,24 @@ std::string fmt(double v) {
 
 class Parser {
  public:
-  Parser(std::string file) : file_(std::move(file)) {}
+  Parser(std::string file, std::vector<InputError>* collect = nullptr) : file_(std::move(file)), collect_(collect) {}
+
+  // In collecting mode (validate), an error in one field is recorded and parsing goes on with the
+  // next field, so that every error is reported at once.
+  template <class Fn>
+  bool attempt(Fn&& fn) const {
+    if (!collect_) {
+      fn();
+      return true;
+    }
+    try {
+      fn();
+      return true;
+    } catch (const InputError& e) {
+      collect_->push_back(e);
+      return false;
+    }
+  }
 
   [[noreturn]] void fail(const YAML::Node& n, const std::string& msg) const {
     if (n.IsDefined() && n.Mark().line >= 0) throw InputError(file_, n.Mark().line + 1, n.Mark().column + 1, msg);
@@ -606,19 +623,22 @@ class Parser {
       std::string k = it->first.Scalar();
       if (std::find(keys.begin(), keys.end(), k) == keys.end()) {
         std::string c = closest(k, keys);
-        fail(it->first, "unknown key '" + k + "' in " + where(path) +
-                            (c.empty() ? "" : "; did you mean '" + c + "'?") + " Valid keys: " + joinList(keys));
+        attempt([&] {
+          fail(it->first, "unknown key '" + k + "' in " + where(path) +
+                              (c.empty() ? "" : "; did you mean '" + c + "'?") + " Valid keys: " + joinList(keys));
+        });
       }
     }
     for (auto* c : fields) {
       std::string p = path.empty() ? c->key : path + "." + c->key;
       const YAML::Node& m = n[c->key];
       if (m && !m.IsNull()) {
-        v.members[c->key] = parse(m, *c, p);
+        if (!attempt([&] { v.members[c->key] = parse(m, *c, p); })) continue;
       } else if (!c->default_value.is_null()) {
         v.members[c->key] = defaultValue(*c, p, v.line, v.column);
       } else if (c->required) {
-        fail(n, where(path) + ": missing required key '" + c->key + "' (" + c->doc + ")");
+        attempt([&] { fail(n, where(path) + ": missing required key '" + c->key + "' (" + c->doc + ")"); });
+        continue;
       } else {
         continue;
       }
@@ -637,13 +657,14 @@ class Parser {
       v.line = n.Mark().line + 1;
       v.column = n.Mark().column + 1;
       for (size_t i = 0; i < n.size(); ++i)
-        v.items.push_back(parseObject(n[i], f, path + "[" + std::to_string(i) + "]"));
+        attempt([&] { v.items.push_back(parseObject(n[i], f, path + "[" + std::to_string(i) + "]")); });
       return v;
     }
     return parseScalar(n, f, path);
   }
 
   std::string file_;
+  std::vector<InputError>* collect_;
 };
 
 // Rules that involve several fields.
@@ -691,8 +712,10 @@ std::string Value::str() const {
 }
 bool Value::flag() const { return dist.constant.get<bool>(); }
 
-Config parseConfig(const std::string& text, const std::string& file) {
-  Parser p(file);
+Config parseConfig(const std::string& text, const std::string& file) { return parseConfig(text, file, nullptr); }
+
+Config parseConfig(const std::string& text, const std::string& file, std::vector<InputError>* all_errors) {
+  Parser p(file, all_errors);
   YAML::Node doc;
   try {
     doc = YAML::Load(text);
@@ -704,6 +727,7 @@ Config parseConfig(const std::string& text, const std::string& file) {
   c.file = file;
   c.text = text;
   c.root = p.parse(doc, configSchema(), "");
+  if (all_errors && !all_errors->empty()) return c;  // cross-field rules need every field
   crossChecks(c.root, p);
   return c;
 }
@@ -711,6 +735,12 @@ Config parseConfig(const std::string& text, const std::string& file) {
 Config loadConfig(const std::string& path) {
   if (!std::filesystem::is_regular_file(path)) throw InputError(path, "config file not found");
   return parseConfig(readTextFile(path), path);
+}
+
+Config loadConfigAllErrors(const std::string& path, std::vector<InputError>& errors) {
+  if (!std::filesystem::is_regular_file(path)) throw InputError(path, "config file not found");
+  Config c = parseConfig(readTextFile(path), path, &errors);
+  return c;
 }
 
 // ---------------------------------------------------------------------------------------------

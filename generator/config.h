@@ -15,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/error.h"
 #include "core/rng.h"
 
 namespace dg {
@@ -83,6 +84,11 @@ struct Config {
 // Loads and validates a config. Throws InputError with file:line:column for every problem.
 Config loadConfig(const std::string& path);
 Config parseConfig(const std::string& text, const std::string& file_name);
+// Collecting variant for `defectgen validate`: every field error is appended to `errors` (in file
+// order) instead of stopping at the first; the returned config is only usable when none occurred.
+// Malformed YAML still throws, since nothing after the syntax error can be read.
+Config parseConfig(const std::string& text, const std::string& file_name, std::vector<InputError>* errors);
+Config loadConfigAllErrors(const std::string& path, std::vector<InputError>& errors);
 
 // Samples a scalar value (number or string) and records it in `record` under its path when it was
 // a distribution.

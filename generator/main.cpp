@@ -78,7 +78,13 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*v) {
-      Config c = loadConfig(validate_path);
+      std::vector<InputError> errors;
+      Config c = loadConfigAllErrors(validate_path, errors);
+      if (!errors.empty()) {
+        for (const InputError& e : errors) std::fprintf(stderr, "defectgen: error: %s\n", e.what());
+        std::fprintf(stderr, "defectgen: %zu error(s) in %s\n", errors.size(), validate_path.c_str());
+        return kExitInputError;
+      }
       std::cout << describeConfig(c);
       std::cerr << "defectgen: " << validate_path << " is valid\n";
       return 0;

@@ -27,6 +27,16 @@ def run(*args, ok=True):
     return p
 
 
+def load_json(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+def read_bytes(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
 def work(name):
     d = os.path.join(ARGS.work, name)
     shutil.rmtree(d, ignore_errors=True)
@@ -104,7 +114,7 @@ class Generate(unittest.TestCase):
                     self.assertTrue(os.path.isfile(os.path.join(out, "samples", "%06d.json" % i)))
                 summary = coco_reader.check_dataset(out)
                 self.assertEqual(summary["images"], 2)
-                man = json.load(open(os.path.join(out, "manifest.json")))
+                man = load_json(os.path.join(out, "manifest.json"))
                 self.assertEqual(man["samples_complete"], 2)
                 for lib in ("embree", "opencv", "openimageio", "openexr", "cgal"):
                     self.assertIn(lib, man["versions"])
@@ -116,18 +126,18 @@ class Generate(unittest.TestCase):
         summary = coco_reader.check_dataset(out)
         self.assertEqual(summary["images"], 4)
         self.assertGreater(summary["annotations"], 0)
-        coco = json.load(open(os.path.join(out, "annotations.json")))
+        coco = load_json(os.path.join(out, "annotations.json"))
         self.assertEqual([c["name"] for c in coco["categories"]], ["dent", "scratch", "rust", "patina"])
         for a in coco["annotations"]:
             self.assertEqual(a["category_id"], 1)
             self.assertIn("radius_mm", a["attributes"])
-        meta = json.load(open(os.path.join(out, "samples", "000000.json")))
+        meta = load_json(os.path.join(out, "samples", "000000.json"))
         for key in ("material.base_color[0]", "camera.position[0]", "defects[0].count"):
             self.assertIn(key, meta["sampled"])
         self.assertEqual(len(meta["camera"]["K"]), 3)
         self.assertEqual(len(meta["camera"]["distortion"]), 5)
         # The EXR exists with the requested layers (checked by name in its header).
-        exr = open(os.path.join(out, "images", "000000.exr"), "rb").read()
+        exr = read_bytes(os.path.join(out, "images", "000000.exr"))
         for name in (b"depth.Z", b"normal.X", b"mask.coverage", b"R\x00"):
             self.assertIn(name, exr)
         # No temporary file is left behind.
@@ -167,13 +177,13 @@ class Generate(unittest.TestCase):
 
 
 class BadInput(unittest.TestCase):
-    def expect_error(self, args, *fragments, out=None):
+    def expect_error(self, args, *fragments, out=None, lines=1):
         p = run(*args, ok=False)
         self.assertEqual(p.returncode, 2, "exit status for %s:\n%s" % (args, p.stderr))
         for frag in fragments:
             self.assertIn(frag, p.stderr)
         self.assertNotIn("internal error", p.stderr)
-        self.assertEqual(p.stderr.count("\n"), 1, "one clear message expected:\n" + p.stderr)
+        self.assertEqual(p.stderr.count("\n"), lines, "%d line(s) expected:\n%s" % (lines, p.stderr))
         if out:
             self.assertFalse(os.path.exists(out), "output folder left behind: " + out)
         return p
@@ -199,8 +209,13 @@ class BadInput(unittest.TestCase):
         for name, text, frags in cases:
             with self.subTest(name):
                 self.expect_error(["generate", self.config(d, text), "--out", out], *frags, out=out)
-                self.expect_error(["validate", self.config(d, text)], *frags)
+                self.expect_error(["validate", self.config(d, text)], *frags,
+                                  lines=1 if name == "malformed" else 2)
         self.expect_error(["generate", os.path.join(d, "absent.yaml"), "--out", out], "absent.yaml", out=out)
+        # validate reports every error at once, then a count.
+        many = base.replace("max_bounces", "max_bounce").replace("spp: 2", "spp: two")
+        p = self.expect_error(["validate", self.config(d, many)], "bad.yaml:21:8", "bad.yaml:22:3",
+                              "2 error(s)", lines=3)
 
     def test_mesh_errors(self):
         d = work("bad_mesh")

@@ -191,3 +191,22 @@ TEST(Config, EditDistance) {
   EXPECT_EQ(editDistance("", "abc"), 3u);
   EXPECT_EQ(editDistance("same", "same"), 0u);
 }
+
+TEST(Config, CollectingModeReportsEveryError) {
+  std::string y = "part:\n  type: plate\n  widht_mm: 300\nlights:\n  - type: dome\n    radiance: [1, 1]\n"
+                  "camera:\n  fov_deg: 400\n  position: [0, 0, 500]\nrender:\n  spp: -1\n";
+  std::vector<InputError> errors;
+  parseConfig(y, "multi.yaml", &errors);
+  ASSERT_EQ(errors.size(), 4u);
+  EXPECT_NE(std::string(errors[0].what()).find("multi.yaml:3:3: unknown key 'widht_mm'"), std::string::npos) << errors[0].what();
+  EXPECT_NE(std::string(errors[1].what()).find("multi.yaml:6:15"), std::string::npos) << errors[1].what();
+  EXPECT_NE(std::string(errors[2].what()).find("'camera.fov_deg'"), std::string::npos) << errors[2].what();
+  EXPECT_NE(std::string(errors[3].what()).find("'render.spp'"), std::string::npos) << errors[3].what();
+  // The throwing variant stops at the first.
+  try {
+    parseConfig(y, "multi.yaml");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), std::string(errors[0].what()));
+  }
+}

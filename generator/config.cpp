@@ -138,9 +138,9 @@ Field buildSchema() {
   part.variant_docs["fender"] = "Front fender: side panel curved in plan, with a wheel-arch cut-out.";
   part.variants["mesh"] = {
       path("path", "Mesh file: OBJ, PLY, STL, OFF or glTF 2.0 (.gltf/.glb), relative to the config.", true),
-      num("unit_scale_to_mm", "", 1.0, 0, 1e6, "Factor from the file's units to mm (0.001 for metres... "
-          "use 1000).", false, true)};
-  part.variants["mesh"][1].doc = "Factor from the file's units to mm (1000 for a file in metres).";
+      num("unit_scale_to_mm", "", 1.0, 0, 1e6, "", false, true)};
+  part.variants["mesh"][1].doc =
+      "Factor from the file's units to mm. Default 1, except 1000 for glTF (whose unit is the metre).";
   part.variant_docs["mesh"] =
       "A mesh from a file. UVs come from the file (OBJ vt, glTF TEXCOORD_0); without them they are "
       "computed by CGAL's LSCM parameterization (the mesh must then be one disk-like patch).";
@@ -729,6 +729,13 @@ Config parseConfig(const std::string& text, const std::string& file, std::vector
   c.root = p.parse(doc, configSchema(), "");
   if (all_errors && !all_errors->empty()) return c;  // cross-field rules need every field
   crossChecks(c.root, p);
+  // glTF 2.0 defines its unit as the metre, so its default scale to mm is 1000.
+  Value& part = c.root.members.at("part");
+  if (part["type"].str() == "mesh" && part["unit_scale_to_mm"].defaulted) {
+    std::string ext = std::filesystem::path(part["path"].str()).extension().string();
+    for (auto& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    if (ext == ".gltf" || ext == ".glb") part.members.at("unit_scale_to_mm").dist.constant = 1000.0;
+  }
   return c;
 }
 

@@ -210,3 +210,15 @@ TEST(Config, CollectingModeReportsEveryError) {
     EXPECT_EQ(std::string(e.what()), std::string(errors[0].what()));
   }
 }
+
+TEST(Config, GltfDefaultsToMetres) {
+  std::string dir = std::string(DG_SOURCE_DIR) + "/tests/fixtures/meshes/";
+  auto cfg = [&](const std::string& mesh, const std::string& extra) {
+    return "part:\n  type: mesh\n  path: " + dir + mesh + "\n" + extra +
+           "lights:\n  - type: dome\ncamera:\n  fov_deg: 40\n  position: [0, 0, 500]\n";
+  };
+  EXPECT_DOUBLE_EQ(parseConfig(cfg("quad_uv.gltf", ""), "t.yaml").root["part"]["unit_scale_to_mm"].num(), 1000.0);
+  EXPECT_DOUBLE_EQ(parseConfig(cfg("quad_uv.gltf", "  unit_scale_to_mm: 10\n"), "t.yaml")
+                       .root["part"]["unit_scale_to_mm"].num(), 10.0);
+  EXPECT_DOUBLE_EQ(parseConfig(cfg("quad_vt.obj", ""), "t.yaml").root["part"]["unit_scale_to_mm"].num(), 1.0);
+}

@@ -1,4 +1,4 @@
-// BSDFs of the three material kinds (see bsdf.h). Everything below evalBsdf/pdfBsdf/sampleBsdf runs
+// BSDFs of the four material kinds (see bsdf.h). Everything below evalBsdf/pdfBsdf/sampleBsdf runs
 // once or more per path vertex, so it is plain float arithmetic: no allocation, no virtual calls,
 // no std::complex.
 //
@@ -252,6 +252,91 @@ inline Rgb clamp01(Rgb c) {
 }
 
 // ------------------------------------------------------------------------------------------------
+// Rough diffuse (Oren-Nayar)
+// ------------------------------------------------------------------------------------------------
+//
+// Oren & Nayar 1994 ("Generalization of Lambert's Reflectance Model", SIGGRAPH '94, pp. 239-246)
+// model a rough body-reflecting surface as V-cavities of Lambertian facets whose slope angles are
+// Gaussian with standard deviation sigma (radians), with masking, shadowing, foreshortening and
+// interreflection between the two faces of a cavity. We use their full functional approximation,
+// radiance L_r = L_r1 (direct) + L_r2 (interreflection), divided by the irradiance E0 cos(theta_i)
+// so that it becomes a BRDF:
+//   f = rho/pi   [C1 + g C2 tan(beta) + (1 - |g|) C3 tan((alpha + beta) / 2)]            (L_r1)
+//     + rho^2/pi 0.17 sigma^2 / (sigma^2 + 0.13) [1 - g (2 beta / pi)^2]                  (L_r2)
+//   alpha = max(theta_i, theta_o),  beta = min(theta_i, theta_o),  g = cos(phi_i - phi_o),
+//   C1 = 1 - 0.5 sigma^2 / (sigma^2 + 0.33),
+//   C2 = 0.45 sigma^2 / (sigma^2 + 0.09) sin(alpha)                         if g >= 0,
+//        0.45 sigma^2 / (sigma^2 + 0.09) (sin(alpha) - (2 beta / pi)^3)     if g <  0,
+//   C3 = 0.125 sigma^2 / (sigma^2 + 0.09) (4 alpha beta / pi^2)^2,
+// as given in shared/reference/mihaylov-metals.md §1.7 [X], which recommends this full model. The
+// rho^2 of the interreflection term is per channel (two bounces off facets of the same colour).
+// Not taken from the thesis's version (digest §8, items 6-8): g is the cosine of the azimuth
+// difference (both projected directions normalised), not their unnormalised dot product; the g < 0
+// branch multiplies (sin(alpha) - (2 beta/pi)^3) into C2 instead of replacing C2; the
+// interreflection term and the 1/pi are present. sigma = 0 gives C1 = 1, C2 = C3 = 0 and no
+// interreflection: exactly Lambert, rho/pi.
+//
+// f depends on wo and wi only through alpha, beta and g, all symmetric, so it is reciprocal; below,
+// every quantity is a min, max, sum or product of per-direction values taken in a symmetric way,
+// so f(wo, wi) == f(wi, wo) bitwise.
+//
+// Energy balance (rho = 1, by quadrature in double; checked in tests/render/oren_nayar_test.cpp).
+// The model neither conserves nor only loses energy: with one bounce of interreflection it loses
+// energy at normal view (directional albedo 0.96 at sigma = 0.3, 0.77 at sigma = 1), and toward
+// grazing view it gains some (max 1.051 at sigma ~ 0.3 and theta_o -> 90 deg; the direct term
+// alone reaches 1.0035 at sigma ~ 0.15). It never exceeds 1 when every channel of base_color is
+// <= 0.95, which covers rust and patina by a wide margin. We keep the published model unscaled.
+//
+// Guards (none of them matter away from the horizon):
+//  - at sigma >~ 0.7 the g < 0 branch of C2 overshoots C1 when both directions lie within a few
+//    degrees of the horizon (the direct bracket tends to C1 - (6/pi) 0.45 sigma^2/(sigma^2 + 0.09)
+//    for alpha = beta -> 90 deg, forward scattering): the direct bracket is clamped at 0;
+//  - tan(beta) = sin(beta)/cos(beta) and tan((alpha+beta)/2) = (sin(alpha) + sin(beta)) /
+//    (cos(alpha) + cos(beta)) (a sum-to-product identity, no angle needed) take cos(beta) >= 1e-6,
+//    so f stays finite for directions within 1e-6 rad of the horizon;
+//  - when either direction is along the normal, g is undefined; beta = 0 then removes every term
+//    that depends on g, and g = 0 is used.
+// The polar angles themselves (needed for (2 beta/pi)^3, C3 and L_r2) come from atan2(sin, cos),
+// which, unlike acos(z), keeps full precision near the normal and cannot see |z| > 1.
+
+constexpr float kMaxSigma = 1.57079632679489661923f;  // pi/2: slope-angle deviation beyond 90 deg
+constexpr float kTwoOverPi = 0.63661977236758134308f;
+constexpr float kMinCosTan = 1e-6f;
+
+inline Rgb orenNayar(Rgb rho, float sigma, Vec3f wo, Vec3f wi) {
+  const float s = clampf(sigma, 0.0f, kMaxSigma);  // NaN ends at 0
+  if (!(s > 0.0f)) return rho * kInvPiF;           // Lambert (the general path gives the same)
+  const float s2 = s * s;
+  const float c1 = 1.0f - 0.5f * s2 / (s2 + 0.33f);
+  const float k = s2 / (s2 + 0.09f);
+
+  const float sin_o = std::sqrt(wo.x * wo.x + wo.y * wo.y);
+  const float sin_i = std::sqrt(wi.x * wi.x + wi.y * wi.y);
+  // alpha is the polar angle further from the normal, beta the nearer one.
+  const float sin_a = std::max(sin_o, sin_i), sin_b = std::min(sin_o, sin_i);
+  const float cos_a = std::min(wo.z, wi.z), cos_b = std::max(wo.z, wi.z);
+  const float th_o = std::atan2(sin_o, wo.z), th_i = std::atan2(sin_i, wi.z);
+  const float a = kTwoOverPi * std::max(th_o, th_i);  // 2 alpha / pi, in [0, 1]
+  const float b = kTwoOverPi * std::min(th_o, th_i);  // 2 beta / pi, in [0, 1]
+
+  const float sin_prod = sin_o * sin_i;
+  const float g =
+      sin_prod > 0.0f ? clampf((wo.x * wi.x + wo.y * wi.y) / sin_prod, -1.0f, 1.0f) : 0.0f;
+
+  const float cb = std::max(cos_b, kMinCosTan);
+  const float tan_b = sin_b / cb;
+  const float tan_half = (sin_a + sin_b) / (std::max(cos_a, 0.0f) + cb);
+
+  // sin(alpha) >= sin(beta) >= 2 beta/pi >= (2 beta/pi)^3 (Jordan's inequality), so C2 >= 0.
+  const float c2 = 0.45f * k * (g >= 0.0f ? sin_a : sin_a - b * b * b);
+  const float ab = a * b;  // 4 alpha beta / pi^2
+  const float c3 = 0.125f * k * (ab * ab);
+  const float direct = std::max(0.0f, c1 + g * c2 * tan_b + (1.0f - std::abs(g)) * c3 * tan_half);
+  const float inter = 0.17f * s2 / (s2 + 0.13f) * (1.0f - g * (b * b));
+  return rho * (direct * kInvPiF) + (rho * rho) * (inter * kInvPiF);
+}
+
+// ------------------------------------------------------------------------------------------------
 // Lobes
 // ------------------------------------------------------------------------------------------------
 //
@@ -297,6 +382,9 @@ inline LobeProbs lobeProbs(const Material& m, Vec3f wo) {
     case MaterialKind::Conductor:
       lp.p[kSpec] = 1.0f;
       return lp;
+    case MaterialKind::RoughDiffuse:
+      lp.p[kDiffuse] = 1.0f;
+      return lp;
     case MaterialKind::Plastic: {
       const float f = fresnelDielectric(wo.z, m.ior);
       w[kSpec] = f;
@@ -331,6 +419,8 @@ inline LobeProbs lobeProbs(const Material& m, Vec3f wo) {
 
 Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi) {
   if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return Rgb(0.0f);
+  if (m.kind == MaterialKind::RoughDiffuse)  // needs no half vector
+    return orenNayar(clamp01(m.base_color), m.sigma, wo, wi);
   // |wo + wi| = 2 cos(theta_h) with wo.h = wi.h = cos(theta_h). Taking the Fresnel cosine from the
   // length instead of from dot(wo, h) keeps f(wo, wi) and f(wi, wo) bitwise equal (the two dot
   // products differ by rounding, which matters for Fresnel near grazing).
@@ -365,12 +455,15 @@ Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi) {
       }
       return layer * through + Rgb(spec);
     }
+    case MaterialKind::RoughDiffuse:  // returned above
+      break;
   }
   return Rgb(0.0f);
 }
 
 float pdfBsdf(const Material& m, Vec3f wo, Vec3f wi) {
   if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return 0.0f;
+  if (m.kind == MaterialKind::RoughDiffuse) return wi.z * kInvPiF;  // cosine-weighted only
   const Vec3f h = normalize(wo + wi);
   const LobeProbs lp = lobeProbs(m, wo);
   const float spec_alpha =

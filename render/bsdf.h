@@ -7,6 +7,10 @@
 //  - Plastic: a dielectric microfacet coat (IOR) over a Lambertian base colour.
 //  - CarPaint: a clear coat (dielectric microfacet, coat roughness, coat IOR) layered over a base
 //    that mixes Lambertian base colour with a metallic-flake glossy lobe (flake amount in [0,1]).
+//  - RoughDiffuse: rough diffuse body reflection for rust and patina, the full Oren-Nayar (1994)
+//    model (direct term with C1, C2, C3 plus the interreflection term) with albedo base_color and
+//    facet-slope deviation sigma; sigma = 0 is exactly Lambert. Sampled cosine-weighted. See the
+//    comment above orenNayar() in bsdf.cpp for the formula, its energy balance and its guards.
 // Roughness r is perceptual: the microfacet alpha is r^2.
 #pragma once
 #include <string>
@@ -17,12 +21,12 @@
 namespace dg {
 
 enum class MicrofacetModel { GGX, Beckmann };
-enum class MaterialKind { Conductor, Plastic, CarPaint };
+enum class MaterialKind { Conductor, Plastic, CarPaint, RoughDiffuse };
 
 struct Material {
   MaterialKind kind = MaterialKind::Plastic;
   MicrofacetModel model = MicrofacetModel::GGX;
-  Rgb base_color{0.5f, 0.5f, 0.5f};  // linear; Plastic and CarPaint base
+  Rgb base_color{0.5f, 0.5f, 0.5f};  // linear; Plastic and CarPaint base, RoughDiffuse albedo
   float roughness = 0.3f;            // Conductor and Plastic surface roughness
   Rgb eta{1.5f}, k{0.0f};            // Conductor complex IOR per channel
   float ior = 1.5f;                  // Plastic coat IOR
@@ -31,6 +35,10 @@ struct Material {
   float flake_roughness = 0.35f;  // glossiness of the flake lobe
   float coat_roughness = 0.05f;
   float coat_ior = 1.5f;
+  // RoughDiffuse: Oren-Nayar roughness, the standard deviation of the facet slope angle in
+  // RADIANS (not the perceptual roughness above). 0 = Lambert; the digest's rust/patina range is
+  // 0..1. Values are clamped to [0, pi/2]; NaN counts as 0.
+  float sigma = 0.3f;
 };
 
 // A named metal with its complex IOR (n, k) for the R, G, B channels and where the values come from.

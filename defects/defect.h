@@ -8,6 +8,8 @@
 //  - replace the surface's appearance (a different material, e.g. rust or exposed primer) with a
 //    weight, for defects that change what the surface is made of.
 #pragma once
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -34,11 +36,40 @@ struct DefectQuery {
   Vec2f uv;
   Vec2f duv_dx{0, 0}, duv_dy{0, 0};
   float mm_per_uv = 1.0f;  // local chart stretch of the triangle (1 for isometric charts)
+  float cavity = 0.0f;     // ambient occlusion of the part at the point, 0 (open) .. 1 (cavity);
+                           // computed only when a defect asks for it (needsCavity())
+  // The footprint's largest extent in UV mm (for filtering procedural detail).
+  float footprint() const {
+    return std::max(std::max(std::fabs(duv_dx.x), std::fabs(duv_dx.y)),
+                    std::max(std::fabs(duv_dy.x), std::fabs(duv_dy.y)));
+  }
+};
+
+// What a weathering defect turns the surface into. The renderer maps it onto a BSDF; defects
+// stay free of renderer types.
+struct SurfaceAppearance {
+  Rgb albedo{0.5f};
+  float sigma_rad = 0.5f;  // Oren-Nayar roughness (Oren and Nayar 1994)
 };
 
 // What the defects do to one shading point. Accumulated over all defects that apply.
 struct DefectShading {
   Vec2f height_grad{0, 0};  // d(height)/du, d(height)/dv in mm per mm of UV (outward positive)
+  // Fraction of the shading point's surface replaced by `appearance` (rust, patina); where several
+  // defects overlap, the covers combine as 1 - prod(1 - c) and the strongest one's look is kept.
+  float cover = 0.0f;
+  SurfaceAppearance appearance;
+  void addCover(float c, const SurfaceAppearance& a) {
+    if (c <= 0) return;
+    if (c > strongest_) {
+      strongest_ = c;
+      appearance = a;
+    }
+    cover = 1.0f - (1.0f - cover) * (1.0f - c);
+  }
+
+ private:
+  float strongest_ = 0.0f;
 };
 
 class Defect {
@@ -53,9 +84,18 @@ class Defect {
   // UV box (mm) of the labelled region; inside support().
   virtual Box2 maskBox() const { return support(); }
   virtual void shade(const DefectQuery& q, DefectShading& s) const = 0;
+  // The defect's height field at UV point p (mm, outward positive), for true displacement of the
+  // geometry; 0 for defects that only change appearance.
+  virtual float height(Vec2f p) const { return 0.0f; }
+  // Whether the geometry should be displaced for this defect (deep dents, dents near outlines).
+  virtual bool wantsDisplacement() const { return false; }
   // Whether UV point p (mm) lies in the labelled region. The pixel's coverage is the fraction of
   // its footprint's visible surface for which this holds.
   virtual bool inMask(Vec2f p) const = 0;
+  // The same with the whole query (defects whose label depends on more than UV, e.g. cavities).
+  virtual bool inMask(const DefectQuery& q) const { return inMask(q.uv); }
+  // Whether shade()/inMask() read DefectQuery::cavity (the part's occlusion is then computed).
+  virtual bool needsCavity() const { return false; }
   // Physical parameters, in the units of the config (mm, degrees), for the COCO annotation.
   virtual nlohmann::json attributes() const = 0;
 

@@ -7,6 +7,8 @@
 // Label: the points where the depth is at least mask_threshold * d, i.e.
 //   r <= R sqrt(1 - sqrt(mask_threshold)).
 #pragma once
+#include <cmath>
+
 #include "defects/defect.h"
 
 namespace dg {
@@ -27,6 +29,10 @@ class Dent final : public Defect {
   Box2 maskBox() const override;
   void shade(const DefectQuery& q, DefectShading& s) const override;
   bool inMask(Vec2f p) const override;
+  float height(Vec2f p) const override {
+    double du = double(p.x) - p_.center_uv.x, dv = double(p.y) - p_.center_uv.y;
+    return float(height(std::sqrt(du * du + dv * dv)));
+  }
   nlohmann::json attributes() const override;
 
   // Profile and its radial derivative (exposed for tests).

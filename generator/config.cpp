@@ -277,6 +277,42 @@ Field buildSchema() {
                    "[u, v]: a fixed centre, as fractions of the part's UV extent (instead of `region`)."))};
   def.variant_docs["dent"] = "Round dent, rendered by bump mapping (Blinn 1978) with a C1 "
                              "polynomial bowl profile.";
+  Field region = def.variants["dent"][4], center = def.variants["dent"][5];
+  def.variants["rust"] = {
+      integer("count", "", 1, 0, 1000, "Number of rust spots in the group.", true),
+      enumeration("origin", {"pit", "edge"}, "pit",
+                  "Where the spot starts: a pit in the surface, or the part's edge (the centre is moved "
+                  "to the nearest edge of the UV chart).", true),
+      num("radius_mm", "mm", 20, 1, 1000, "Extent of the fully grown spot."),
+      num("age_years", "years", 2, 0, 100, "Age; for one seed the rusted area only grows with it."),
+      num("growth_years", "years", 3, 0.01, 100, "Time constant of the front: g = 1 - exp(-age/growth).",
+          true, true),
+      num("roughness", "", 0.35, 0, 1, "Raggedness of the front (noise amplitude, in units of the radius)."),
+      num("pit_depth_mm", "mm", 0.15, 0, 5, "Depth of the oldest rust (bump)."),
+      num("blister_width_mm", "mm", 3, 0, 50, "Width of the ring of bubbled paint around the front."),
+      num("blister_height_mm", "mm", 0.08, 0, 2, "Height of the paint bubbles."),
+      num("sigma_deg", "deg", 30, 0, 90, "Oren-Nayar roughness of the rust."),
+      rgb("fresh_color", {0.35, 0.12, 0.04}, 1, "Colour of fresh rust at the front (orange-red)."),
+      rgb("old_color", {0.06, 0.03, 0.015}, 1, "Colour of the oldest, deepest rust (dark brown)."),
+      region, center};
+  def.variant_docs["rust"] = "Rust spot after Mihaylov (2013) with the digest's corrections: a noise-"
+                             "ragged front that advances with age, colour from orange-red (fresh) to dark "
+                             "brown (old), Oren-Nayar reflectance, pitted bump, bubbled paint at the "
+                             "front. See docs/weathering.md.";
+  def.variants["patina"] = {
+      integer("count", "", 1, 0, 1000, "Number of patina regions in the group.", true),
+      num("radius_mm", "mm", 0, 0, 5000, "Radius of the region; 0 = the whole part."),
+      num("age_years", "years", 5, 0, 300, "Age; coverage only grows with it."),
+      num("environment", "", 1, 0.1, 10, "Speed-up of the environment (2-4 near the sea)."),
+      num("cavity_weight", "", 0, 0, 1, "How much cavities (ambient occlusion of the part) attract "
+          "patina; > 0 computes the part's occlusion once per dataset."),
+      num("scale_mm", "mm", 15, 0.5, 1000, "Wavelength of the coverage noise."),
+      num("bump_mm", "mm", 0.03, 0, 1, "Height of the patina crust (bump)."),
+      num("sigma_deg", "deg", 35, 0, 90, "Oren-Nayar roughness of the patina."),
+      region, center};
+  def.variant_docs["patina"] = "Patina on copper, brass, bronze or bare steel (Mihaylov 2013 §5): a five-"
+                               "colour ramp from dark-brown tarnish to blue-green, coverage growing "
+                               "monotonically with age. See docs/weathering.md.";
   root.fields.push_back(def);
   return root;
 }

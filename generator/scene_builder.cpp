@@ -5,6 +5,7 @@
 
 #include "core/error.h"
 #include "defects/dent.h"
+#include "defects/weathering.h"
 #include "render/mesh_io.h"
 #include "render/parts.h"
 
@@ -69,7 +70,16 @@ void planeAxes(Vec3f n, Vec3f& u, Vec3f& v) {
 
 Dataset prepareDataset(Config config) {
   Dataset ds;
-  ds.part = std::make_shared<PartGeometry>(buildPart(config));
+  auto part = std::make_shared<PartGeometry>(buildPart(config));
+  // Occlusion is computed once, and only when a patina group is drawn to cavities.
+  bool cavities = false;
+  for (const Value& d : config.root["defects"].items)
+    if (d["type"].str() == "patina") {
+      const Value& w = d["cavity_weight"];
+      cavities |= !w.isConstant() || w.num() > 0;
+    }
+  if (cavities) part->computeOcclusion();
+  ds.part = part;
   const Value& lights = config.root["lights"];
   ds.env_maps.resize(lights.items.size());
   for (size_t i = 0; i < lights.items.size(); ++i) {
@@ -295,17 +305,18 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
   for (size_t g = 0; g < groups.items.size(); ++g) {
     const Value& d = groups.items[g];
     int count = int(sampleNumber(d["count"], rng, rec));
+    std::string type = d["type"].str();
     for (int k = 0; k < count; ++k) {
       json local = json::object();
       const Value& reg = d["region"];
       double u0 = reg.items[0].num(), v0 = reg.items[1].num(), u1 = reg.items[2].num(), v1 = reg.items[3].num();
-      DentParams dp;
       // Centres are drawn uniformly by area on the part's surface, kept if they fall in the
-      // region (fractions of the UV extent), so a dent never lands off the part.
+      // region (fractions of the UV extent), so a defect never lands off the part.
+      Vec2f center;
       bool placed = false;
       if (d.has("center")) {
         double fu = sampleNumber(d["center"].items[0], rng, local), fv = sampleNumber(d["center"].items[1], rng, local);
-        dp.center_uv = {float(uvb.lo.x + fu * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + fv * (uvb.hi.y - uvb.lo.y))};
+        center = {float(uvb.lo.x + fu * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + fv * (uvb.hi.y - uvb.lo.y))};
         placed = true;
       }
       for (int attempt = 0; attempt < 10000 && !placed; ++attempt) {
@@ -314,19 +325,64 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
         double fu = (uv.x - uvb.lo.x) / std::max(1e-9f, uvb.hi.x - uvb.lo.x);
         double fv = (uv.y - uvb.lo.y) / std::max(1e-9f, uvb.hi.y - uvb.lo.y);
         if (fu >= u0 && fu <= u1 && fv >= v0 && fv <= v1) {
-          dp.center_uv = uv;
+          center = uv;
           placed = true;
         }
       }
       if (!placed)
         throw InputError(c.file, reg.line, reg.column,
                          "'" + reg.path + "': no part surface found in this region of the UV chart");
-      dp.radius_mm = float(sampleNumber(d["radius_mm"], rng, local));
-      dp.depth_mm = float(sampleNumber(d["depth_mm"], rng, local));
-      dp.mask_threshold = float(d["mask_threshold"].num());
-      auto dent = std::make_unique<Dent>(dp);
+      uint64_t instance_seed = hashKey(seed, index, g, uint64_t(k));
+      std::unique_ptr<Defect> defect;
+      if (type == "dent") {
+        DentParams dp;
+        dp.center_uv = center;
+        dp.radius_mm = float(sampleNumber(d["radius_mm"], rng, local));
+        dp.depth_mm = float(sampleNumber(d["depth_mm"], rng, local));
+        dp.mask_threshold = float(d["mask_threshold"].num());
+        defect = std::make_unique<Dent>(dp);
+      } else if (type == "rust") {
+        RustParams rp;
+        std::string origin = sampleValue(d["origin"], rng, local).get<std::string>();
+        if (origin == "edge") {
+          // Move the centre to the nearest edge of the UV chart.
+          float dl = center.x - uvb.lo.x, dr = uvb.hi.x - center.x, db = center.y - uvb.lo.y, dt = uvb.hi.y - center.y;
+          float m = std::min(std::min(dl, dr), std::min(db, dt));
+          if (m == dl) center.x = uvb.lo.x;
+          else if (m == dr) center.x = uvb.hi.x;
+          else if (m == db) center.y = uvb.lo.y;
+          else center.y = uvb.hi.y;
+          rp.origin = "edge";
+        }
+        rp.origin_uv = center;
+        rp.radius_mm = float(sampleNumber(d["radius_mm"], rng, local));
+        rp.age_years = float(sampleNumber(d["age_years"], rng, local));
+        rp.growth_years = float(sampleNumber(d["growth_years"], rng, local));
+        rp.roughness = float(sampleNumber(d["roughness"], rng, local));
+        rp.pit_depth_mm = float(sampleNumber(d["pit_depth_mm"], rng, local));
+        rp.blister_width_mm = float(sampleNumber(d["blister_width_mm"], rng, local));
+        rp.blister_height_mm = float(sampleNumber(d["blister_height_mm"], rng, local));
+        rp.sigma_rad = degToRad(float(sampleNumber(d["sigma_deg"], rng, local)));
+        rp.fresh = sampleRgb(d["fresh_color"], rng, local);
+        rp.old = sampleRgb(d["old_color"], rng, local);
+        rp.seed = instance_seed;
+        defect = std::make_unique<Rust>(rp);
+      } else {
+        PatinaParams pp;
+        pp.center_uv = center;
+        pp.radius_mm = float(sampleNumber(d["radius_mm"], rng, local));
+        pp.age_years = float(sampleNumber(d["age_years"], rng, local));
+        pp.environment = float(sampleNumber(d["environment"], rng, local));
+        pp.cavity_weight = float(sampleNumber(d["cavity_weight"], rng, local));
+        pp.scale_mm = float(sampleNumber(d["scale_mm"], rng, local));
+        pp.bump_mm = float(sampleNumber(d["bump_mm"], rng, local));
+        pp.sigma_rad = degToRad(float(sampleNumber(d["sigma_deg"], rng, local)));
+        pp.seed = instance_seed;
+        pp.part_uv = uvb;
+        defect = std::make_unique<Patina>(pp);
+      }
       uint16_t id = uint16_t(s.defects->size() + 1);
-      dent->setInstanceId(id);
+      defect->setInstanceId(id);
       // Per-instance draws are recorded under defects[g][k].key.
       for (auto& kv : local.items()) {
         std::string key = kv.key();
@@ -335,12 +391,12 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
       }
       InstanceInfo info;
       info.id = id;
-      info.cls = dent->cls();
-      info.attributes = dent->attributes();
+      info.cls = defect->cls();
+      info.attributes = defect->attributes();
       info.attributes["group"] = g;
       s.instances.push_back(info);
-      dj.push_back({{"instance_id", id}, {"class", "dent"}, {"group", g}, {"attributes", info.attributes}});
-      s.defects->push_back(std::move(dent));
+      dj.push_back({{"instance_id", id}, {"class", defect->kind()}, {"group", g}, {"attributes", info.attributes}});
+      s.defects->push_back(std::move(defect));
     }
   }
   if (s.defects->size() > 65535) throw InputError(c.file, groups.line, groups.column, "more than 65535 defects in one sample");

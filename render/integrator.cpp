@@ -102,7 +102,10 @@ float rayEpsilon(Vec3f p) { return 1e-4f * std::max(1.0f, maxComponent(Vec3f(std
 class Tracer {
  public:
   Tracer(const RenderScene& s, const RenderSettings& st)
-      : s_(s), st_(st), mesh_(s.part->mesh()), has_defects_(s.defects && !s.defects->empty()) {}
+      : s_(s), st_(st), mesh_(s.part->mesh()), has_defects_(s.defects && !s.defects->empty()) {
+    if (has_defects_)
+      for (auto& d : *s.defects) needs_cavity_ |= d->needsCavity();
+  }
 
   SurfacePoint surface(const Hit& h, const DiffRay& r, bool need_footprint) const {
     SurfacePoint sp;
@@ -151,20 +154,21 @@ class Tracer {
     return sp;
   }
 
-  // Applies the defects' height gradients to the shading normal (Blinn 1978 in surface-gradient
-  // form: n' = normalize(n - grad_s F), shared/reference/blinn-bump.md §3b and §8.3).
-  void applyDefects(SurfacePoint& sp, Vec3f wo_world) const {
-    if (!has_defects_ || !sp.uv_ok) return;
+  // Applies the defects at a surface point: their height gradients perturb the shading normal
+  // (Blinn 1978 in surface-gradient form: n' = normalize(n - grad_s F), shared/reference/
+  // blinn-bump.md §3b and §8.3), and weathering may replace the surface's look (returned cover and
+  // appearance).
+  DefectShading applyDefects(SurfacePoint& sp, Vec3f wo_world, const Hit& h) const {
+    DefectShading ds;
+    if (!has_defects_ || !sp.uv_ok) return ds;
     DefectQuery q;
     q.uv = sp.uv;
     q.duv_dx = sp.duvdx;
     q.duv_dy = sp.duvdy;
     q.mm_per_uv = sp.mm_per_uv;
-    DefectShading ds;
-    float fr = std::max(std::max(std::fabs(sp.duvdx.x), std::fabs(sp.duvdx.y)),
-                        std::max(std::fabs(sp.duvdy.x), std::fabs(sp.duvdy.y)));
-    s_.defect_index.forEach(sp.uv, fr, [&](const Defect& d) { d.shade(q, ds); });
-    if (ds.height_grad.x == 0 && ds.height_grad.y == 0) return;
+    if (needs_cavity_) q.cavity = s_.part->occlusionAt(h.prim, h.b1, h.b2);
+    s_.defect_index.forEach(sp.uv, q.footprint(), [&](const Defect& d) { d.shade(q, ds); });
+    if (ds.height_grad.x == 0 && ds.height_grad.y == 0) return ds;
     Vec3f N = cross(sp.dpdu, sp.dpdv);
     float n2 = dot(N, N);
     Vec3f pu = cross(sp.dpdv, N) / n2, pv = cross(N, sp.dpdu) / n2;  // dual basis
@@ -177,6 +181,18 @@ class Tracer {
     float c = dot(n, wo_world);
     if (c < 0.02f) n = normalize(n + wo_world * (0.02f - c));
     sp.ns = n;
+    return ds;
+  }
+
+  // The material at a shading point: the part's, or with probability `cover` the weathering's
+  // Oren-Nayar surface (an unbiased stochastic mix of the two BSDFs).
+  static Material weathered(const Material& base, const DefectShading& ds, float u) {
+    if (!(ds.cover > 0) || u >= ds.cover) return base;
+    Material m;
+    m.kind = MaterialKind::RoughDiffuse;
+    m.base_color = ds.appearance.albedo;
+    m.sigma = ds.appearance.sigma_rad;
+    return m;
   }
 
   Rgb trace(DiffRay ray, Rng& rng, uint64_t& nrays) const {
@@ -217,11 +233,11 @@ class Tracer {
       if (depth >= st_.max_bounces) break;
       SurfacePoint sp = surface(h, ray, has_defects_);
       Vec3f wo_w = -ray.d;
-      applyDefects(sp, wo_w);
+      DefectShading ds = applyDefects(sp, wo_w, h);
       Frame fr = Frame::fromNormalTangent(sp.ns, sp.dpdu);
       Vec3f wo = fr.toLocal(wo_w);
       if (wo.z <= 0) break;
-      const Material& m = s_.material;
+      const Material m = ds.cover > 0 ? weathered(s_.material, ds, rng.uniform()) : s_.material;
       float eps = rayEpsilon(sp.p);
       Vec3f origin = sp.p + sp.ng * eps;
 
@@ -297,6 +313,7 @@ class Tracer {
   const RenderSettings& st_;
   const TriangleMesh& mesh_;
   bool has_defects_;
+  bool needs_cavity_ = false;
 };
 
 DiffRay cameraRay(const RayGenerator& gen, float px, float py) {
@@ -359,7 +376,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
               out.depth(x, y) = float(pc.z);
             }
             if (st.want_normals) {
-              tracer.applyDefects(sp, -r.d);
+              tracer.applyDefects(sp, -r.d, h);
               float* o = out.normal.at(x, y);
               o[0] = sp.ns.x;
               o[1] = sp.ns.y;
@@ -381,9 +398,11 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
               const uint32_t* f = &scene.part->mesh().indices[3 * h.prim];
               const auto& uvs = scene.part->mesh().uvs;
               if (uvs.empty()) continue;
-              Vec2f uv = uvs[f[0]] * (1 - h.b1 - h.b2) + uvs[f[1]] * h.b1 + uvs[f[2]] * h.b2;
-              scene.defect_index.forEach(uv, 0.0f, [&](const Defect& d) {
-                if (d.inMask(uv)) ++counts[d.instanceId()];
+              DefectQuery q;
+              q.uv = uvs[f[0]] * (1 - h.b1 - h.b2) + uvs[f[1]] * h.b1 + uvs[f[2]] * h.b2;
+              if (tracer.needs_cavity_) q.cavity = scene.part->occlusionAt(h.prim, h.b1, h.b2);
+              scene.defect_index.forEach(q.uv, 0.0f, [&](const Defect& d) {
+                if (d.inMask(q)) ++counts[d.instanceId()];
               });
             }
           uint16_t best = 0;

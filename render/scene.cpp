@@ -1,5 +1,8 @@
 #include "render/scene.h"
 
+#include "core/parallel.h"
+#include "core/rng.h"
+
 #include <algorithm>
 #include <cmath>
 #include <mutex>
@@ -96,6 +99,56 @@ Vec2f PartGeometry::sampleSurfaceUv(double u0, double u1, double u2) const {
   double s = std::sqrt(u1), b1 = 1 - s, b2 = u2 * s, b0 = 1 - b1 - b2;
   const uint32_t* f = &mesh_.indices[3 * t];
   return mesh_.uvs[f[0]] * float(b0) + mesh_.uvs[f[1]] * float(b1) + mesh_.uvs[f[2]] * float(b2);
+}
+
+void PartGeometry::computeOcclusion(int rays, float max_distance) {
+  size_t nv = mesh_.positions.size();
+  occlusion_.assign(nv, 0.0f);
+  std::vector<Vec3f> vn(nv, Vec3f(0.0f));
+  if (mesh_.normals.size() == nv) {
+    vn = mesh_.normals;
+  } else {
+    for (size_t t = 0; t < frames_.size(); ++t)
+      for (int k = 0; k < 3; ++k) vn[mesh_.indices[3 * t + k]] += frames_[t].ng;
+    for (auto& n : vn) n = normalize(n);
+  }
+  parallelFor((nv + 255) / 256, [&](size_t chunk) {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    for (size_t v = chunk * 256; v < std::min(nv, (chunk + 1) * 256); ++v) {
+      Frame fr = Frame::fromNormal(vn[v]);
+      Vec3f p = mesh_.positions[v] + vn[v] * 1e-3f;
+      int hits = 0;
+      for (int i = 0; i < rays; ++i) {
+        Rng rng(hashKey(0x0CC1, v, uint64_t(i)));
+        float u1 = rng.uniform(), u2 = rng.uniform();
+        float r = std::sqrt(u1), phi = 2 * kPiF * u2;  // cosine-weighted hemisphere
+        Vec3f d = fr.toWorld({r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0f, 1 - u1))});
+        RTCRay ray;
+        ray.org_x = p.x;
+        ray.org_y = p.y;
+        ray.org_z = p.z;
+        ray.dir_x = d.x;
+        ray.dir_y = d.y;
+        ray.dir_z = d.z;
+        ray.tnear = 0;
+        ray.tfar = max_distance;
+        ray.time = 0;
+        ray.mask = ~0u;
+        ray.id = 0;
+        ray.flags = 0;
+        rtcOccluded1(scene_, &ctx, &ray);
+        hits += ray.tfar < 0;
+      }
+      occlusion_[v] = float(hits) / float(rays);
+    }
+  });
+}
+
+float PartGeometry::occlusionAt(unsigned prim, float b1, float b2) const {
+  if (occlusion_.empty()) return 0.0f;
+  const uint32_t* f = &mesh_.indices[3 * prim];
+  return occlusion_[f[0]] * (1 - b1 - b2) + occlusion_[f[1]] * b1 + occlusion_[f[2]] * b2;
 }
 
 PartGeometry::~PartGeometry() {

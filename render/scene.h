@@ -37,13 +37,20 @@ class PartGeometry {
   // A point drawn uniformly by area on the surface, returned as its UV (mm); u0 picks the
   // triangle, (u1, u2) the point in it.
   Vec2f sampleSurfaceUv(double u0, double u1, double u2) const;
+  // Ambient occlusion per vertex (0 open .. 1 enclosed), for defects that gather in cavities:
+  // the fraction of cosine-distributed rays from the vertex that hit the part within max_distance.
+  // Computed once per dataset, only when asked for; deterministic (counter-based rays).
+  void computeOcclusion(int rays_per_vertex = 64, float max_distance_mm = 100.0f);
+  bool hasOcclusion() const { return !occlusion_.empty(); }
+  float occlusionAt(unsigned prim, float b1, float b2) const;
   Vec3f boundingCenter() const { return center_; }
 
  private:
   TriangleMesh mesh_;
   RTCScene scene_ = nullptr;
   std::vector<TriFrame> frames_;
-  std::vector<double> area_cdf_;  // cumulative triangle areas, normalised to end at 1
+  std::vector<double> area_cdf_;
+  std::vector<float> occlusion_;  // cumulative triangle areas, normalised to end at 1
   size_t degenerate_uv_ = 0;
   Box2 uv_bounds_;
   Vec3f center_;

@@ -6,15 +6,20 @@
 // 8d/(3 sqrt(3) R) ~ 1.5396 d/R at r = R/sqrt(3).
 // Label: the points where the depth is at least mask_threshold * d, i.e.
 //   r <= R sqrt(1 - sqrt(mask_threshold)).
+// A crease is the same profile across a line segment: r is the distance to the segment (from
+// center_uv to end_uv), so the crease has round ends; a round dent is a crease of length 0.
 #pragma once
 #include <cmath>
+#include <limits>
 
 #include "defects/defect.h"
 
 namespace dg {
 
 struct DentParams {
-  Vec2f center_uv;          // mm
+  Vec2f center_uv;          // mm; for a crease, one end of its line
+  // The other end of a crease's line; NaN (the default) or equal to center_uv for a round dent.
+  Vec2f end_uv{std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::quiet_NaN()};
   float radius_mm = 10;
   float depth_mm = 0.5;     // positive = inward
   float mask_threshold = 0.1f;
@@ -30,9 +35,11 @@ class Dent final : public Defect {
   void shade(const DefectQuery& q, DefectShading& s) const override;
   bool inMask(Vec2f p) const override;
   float height(Vec2f p) const override {
-    double du = double(p.x) - p_.center_uv.x, dv = double(p.y) - p_.center_uv.y;
+    double du, dv;
+    offset(p, 1.0, du, dv);
     return float(height(std::sqrt(du * du + dv * dv)));
   }
+  bool isCrease() const { return is_crease_; }
   nlohmann::json attributes() const override;
 
   // Profile and its radial derivative (exposed for tests).
@@ -42,8 +49,11 @@ class Dent final : public Defect {
   const DentParams& params() const { return p_; }
 
  private:
+  // Offset (surface mm) from the closest point of the dent's centre line to p.
+  void offset(Vec2f p, double mm_per_uv, double& du, double& dv) const;
   DentParams p_;
   double mask_radius_;
+  bool is_crease_ = false;
 };
 
 }  // namespace dg

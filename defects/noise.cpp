@@ -81,19 +81,14 @@ float octaveSum(const SimplexNoise& noise, const float* p, const FbmParams& fp, 
   float sum = 0.0f;     // sum_k a_k w_k (n_k - mean)   (n_k -> |n_k| for turbulence)
   float ampSum = 0.0f;  // A = sum over all octaves of a_k (faded ones included)
   float a = 1.0f, f = fp.base_frequency;
-  bool active = true;
   for (int k = 0; k < octaves; ++k, a *= fp.gain, f *= fp.lacunarity) {
     ampSum += a;
-    if (!active) continue;
     const float w = octaveWeight(footprint, f);
-    if (w <= 0.0f) {  // this and every finer octave sit at their mean
-      active = false;
-      continue;
-    }
+    if (w <= 0.0f) continue;  // fully faded: the octave sits at its mean, nothing to evaluate
     float q[3], ng[3] = {0.0f, 0.0f, 0.0f};
     for (int c = 0; c < D; ++c) q[c] = f * p[c] + float(k) * kOctaveShift[c];
     float v;
-    if (D == 2) {
+    if constexpr (D == 2) {
       Vec2f g2;
       v = noise.noise2(Vec2f(q[0], q[1]), grad ? &g2 : nullptr);
       ng[0] = g2.x;
@@ -106,7 +101,7 @@ float octaveSum(const SimplexNoise& noise, const float* p, const FbmParams& fp, 
       ng[2] = g3.z;
     }
     float s = 1.0f;
-    if (Turb && v < 0.0f) {
+    if (Turb && v < 0.0f) {  // |n|, and the sign that goes with its gradient
       v = -v;
       s = -1.0f;
     }

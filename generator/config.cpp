@@ -275,9 +275,22 @@ Field buildSchema() {
           "are drawn uniformly by area on the part's surface within it.", false),
       optional(vec("center", 2, "fraction", nullptr, 0, 1,
                    "[u, v]: a fixed centre, as fractions of the part's UV extent (instead of `region`)."))};
-  def.variant_docs["dent"] = "Round dent, rendered by bump mapping (Blinn 1978) with a C1 "
-                             "polynomial bowl profile.";
+  def.variant_docs["dent"] = "Round dent or crease, rendered by bump mapping (Blinn 1978) with a C1 "
+                             "polynomial bowl profile across its centre point or line.";
   Field region = def.variants["dent"][4], center = def.variants["dent"][5];
+  def.variants["dent"].push_back(num("length_mm", "mm", 0, 0, 2000,
+                                     "Length of the crease line through the centre; 0 = a round dent."));
+  def.variants["dent"].push_back(num("angle_deg", "deg", 0, -360, 360,
+                                     "Direction of a crease in the UV chart, from +u toward +v."));
+  def.variants["hail"] = {
+      integer("count", "", 1, 0, 100, "Number of hail clusters.", true),
+      integer("dents_per_cluster", "", 12, 1, 500, "Dents in each cluster.", true),
+      num("cluster_radius_mm", "mm", 80, 1, 2000, "Radius of the area a cluster's dents fall in."),
+      num("radius_mm", "mm", 6, 0.5, 100, "Radius of each dent."),
+      num("depth_mm", "mm", 0.4, 0, 10, "Depth of each dent."),
+      def.variants["dent"][3], region, center};
+  def.variant_docs["hail"] = "A hail cluster: many small round dents scattered in a disc; each dent "
+                             "is its own instance of class dent.";
   def.variants["rust"] = {
       integer("count", "", 1, 0, 1000, "Number of rust spots in the group.", true),
       enumeration("origin", {"pit", "edge"}, "pit",

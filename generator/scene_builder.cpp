@@ -334,12 +334,45 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
                          "'" + reg.path + "': no part surface found in this region of the UV chart");
       uint64_t instance_seed = hashKey(seed, index, g, uint64_t(k));
       std::unique_ptr<Defect> defect;
-      if (type == "dent") {
+      if (type == "hail") {
+        // A cluster of small dents, uniform in a disc around the centre; each is an instance.
+        int n = int(sampleNumber(d["dents_per_cluster"], rng, local));
+        float cr = float(sampleNumber(d["cluster_radius_mm"], rng, local));
+        for (int j = 0; j < n; ++j) {
+          DentParams dp;
+          float rr = cr * std::sqrt(float(rng.uniformD())), ph = float(2 * kPi * rng.uniformD());
+          dp.center_uv = center + Vec2f(rr * std::cos(ph), rr * std::sin(ph));
+          dp.end_uv = dp.center_uv;
+          json one = json::object();
+          dp.radius_mm = float(sampleNumber(d["radius_mm"], rng, one));
+          dp.depth_mm = float(sampleNumber(d["depth_mm"], rng, one));
+          dp.mask_threshold = float(d["mask_threshold"].num());
+          for (auto& kv : one.items()) local[kv.key() + "#" + std::to_string(j)] = kv.value();
+          auto dent = std::make_unique<Dent>(dp);
+          uint16_t id = uint16_t(s.defects->size() + 1);
+          dent->setInstanceId(id);
+          InstanceInfo info;
+          info.id = id;
+          info.cls = dent->cls();
+          info.attributes = dent->attributes();
+          info.attributes["group"] = g;
+          info.attributes["cluster"] = k;
+          s.instances.push_back(info);
+          dj.push_back({{"instance_id", id}, {"class", "dent"}, {"group", g}, {"attributes", info.attributes}});
+          s.defects->push_back(std::move(dent));
+        }
+      } else if (type == "dent") {
         DentParams dp;
         dp.center_uv = center;
         dp.radius_mm = float(sampleNumber(d["radius_mm"], rng, local));
         dp.depth_mm = float(sampleNumber(d["depth_mm"], rng, local));
         dp.mask_threshold = float(d["mask_threshold"].num());
+        float len = float(sampleNumber(d["length_mm"], rng, local));
+        float ang = degToRad(float(sampleNumber(d["angle_deg"], rng, local)));
+        // The crease line is centred on the sampled point.
+        Vec2f half(0.5f * len * std::cos(ang), 0.5f * len * std::sin(ang));
+        dp.center_uv = center - half;
+        dp.end_uv = center + half;
         defect = std::make_unique<Dent>(dp);
       } else if (type == "rust") {
         RustParams rp;
@@ -381,14 +414,15 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
         pp.part_uv = uvb;
         defect = std::make_unique<Patina>(pp);
       }
-      uint16_t id = uint16_t(s.defects->size() + 1);
-      defect->setInstanceId(id);
-      // Per-instance draws are recorded under defects[g][k].key.
+      // Per-instance draws are recorded under defects[g][k].key (hail: key#j for dent j).
       for (auto& kv : local.items()) {
         std::string key = kv.key();
         std::string base = "defects[" + std::to_string(g) + "]";
         rec[base + "[" + std::to_string(k) + "]" + key.substr(base.size())] = kv.value();
       }
+      if (!defect) continue;  // hail clusters added their dents already
+      uint16_t id = uint16_t(s.defects->size() + 1);
+      defect->setInstanceId(id);
       InstanceInfo info;
       info.id = id;
       info.cls = defect->cls();

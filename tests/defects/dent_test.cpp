@@ -122,3 +122,38 @@ TEST(DefectIndex, FindsExactlyTheOverlappingDefects) {
   EXPECT_EQ(n, 0);
   EXPECT_TRUE(DefectIndex().empty());
 }
+
+TEST(Dent, CreaseIsTheProfileAcrossALine) {
+  DentParams p;
+  p.center_uv = {0, 0};
+  p.end_uv = {100, 0};
+  p.radius_mm = 10;
+  p.depth_mm = 1;
+  Dent c(p);
+  EXPECT_TRUE(c.isCrease());
+  // Along the line the depth is the full depth; across it the round profile.
+  EXPECT_NEAR(c.height({50, 0}), -1.0, 1e-6);
+  EXPECT_NEAR(c.height({50, 5}), c.height(5.0), 1e-6);
+  EXPECT_NEAR(c.height({-5, 0}), c.height(5.0), 1e-6);  // round end cap
+  EXPECT_EQ(c.height({50, 11}), 0.0f);
+  // The gradient points straight across the line in the middle.
+  DefectQuery q;
+  q.uv = {50, 4};
+  DefectShading s;
+  c.shade(q, s);
+  EXPECT_EQ(s.height_grad.x, 0.0f);
+  EXPECT_NEAR(s.height_grad.y, c.slope(4), 1e-6);
+  Box2 b = c.support();
+  EXPECT_FLOAT_EQ(b.lo.x, -10);
+  EXPECT_FLOAT_EQ(b.hi.x, 110);
+  // Mask area: a capsule of radius r_m and length L.
+  int n = 0;
+  for (float y = -15; y < 15; y += 0.1f)
+    for (float x = -15; x < 115; x += 0.1f) n += c.inMask({x + 0.05f, y + 0.05f});
+  double rm = c.maskRadius();
+  EXPECT_NEAR(n * 0.01, 100 * 2 * rm + kPi * rm * rm, 0.01 * (100 * 2 * rm + kPi * rm * rm));
+  // A dent without an end point is round.
+  DentParams r;
+  r.center_uv = {3, 4};
+  EXPECT_FALSE(Dent(r).isCrease());
+}

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -93,9 +94,41 @@ CompareRequest buildRequest(const CompareFlags& f) {
       throw InputError("--register", "expected auto, none or points FILE, got '" + mode + "'");
     }
   }
-  if (f.pairs.empty() && (f.reference.empty() || f.test.empty()))
-    throw InputError("compare", "needs REFERENCE and TEST images (or --pairs CSV)");
+  if (f.pairs.empty() && (f.reference.empty() || f.test.empty())) {
+    std::string hint = o.registration.mode == RegistrationMode::Points && f.test.empty()
+                           ? " (--register points takes a FILE before the images)"
+                           : "";
+    throw InputError("compare", "needs the images REFERENCE and TEST (or --pairs CSV)" + hint);
+  }
   return req;
+}
+
+// The images and --register's values in command-line order. `--register points FILE` takes two
+// values, `--register auto` one; CLI11 decides how many tokens an option takes before it sees them,
+// so a `--register auto` written before the images may have swallowed the first image as a second
+// value. CLI11's parse order tells where every value came from, which puts such a value back in its
+// place among the images.
+void collectImagesAndRegister(const CLI::App& c, const CLI::Option* ref, const CLI::Option* tst,
+                              const CLI::Option* reg, std::vector<std::string>& images, std::vector<std::string>& regValues) {
+  std::map<const CLI::Option*, size_t> seen;
+  std::string mode;
+  for (const CLI::Option* o : c.parse_order()) {
+    const size_t k = seen[o]++;
+    if (k >= o->results().size()) continue;
+    const std::string& v = o->results()[k];
+    if (o == ref || o == tst) {
+      images.push_back(v);
+    } else if (o == reg) {
+      if (k == 0) {
+        mode = v;
+        regValues.push_back(v);
+      } else if (k == 1 && mode == "points") {
+        regValues.push_back(v);
+      } else {
+        images.push_back(v);
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -107,10 +140,10 @@ void addCompareCommand(CLI::App& app) {
       "Compare a test image (photograph or render) with a reference: registration, then per-pixel Delta E in "
       "S-CIELAB, YCxCz/Lab or CIELAB; writes delta_e.exr, false-colour, >=10 overlay and histogram PNGs and "
       "report.json (docs/compare.md)");
+  // The images are checked in the callback (they are not needed with --pairs).
   CLI::Option* ref = c->add_option("REFERENCE", f->reference,
-                                   "Reference image: PNG, JPEG, TIFF (8/16-bit sRGB) or EXR (linear)")
-                         ->required();
-  CLI::Option* tst = c->add_option("TEST", f->test, "Test image, resampled onto the reference when registering")->required();
+                                   "Reference image: PNG, JPEG, TIFF (8/16-bit sRGB) or EXR (linear)");
+  CLI::Option* tst = c->add_option("TEST", f->test, "Test image, resampled onto the reference when registering");
   c->add_option("--out", f->out, "Output folder (default: compare_out)");
   c->add_option("--metric", f->metric, "scielab (default), ycxcz or cielab");
   c->add_option("--delta-e", f->deltaE, "Colour difference: 1976 (default), 94 or 2000");
@@ -118,24 +151,29 @@ void addCompareCommand(CLI::App& app) {
   f->oDpi = c->add_option("--dpi", f->dpi, "Display resolution; with --distance-mm");
   f->oPitch = c->add_option("--pixel-pitch-mm", f->pitch, "Size of one pixel on the object, mm; with --distance-mm");
   f->oDistance = c->add_option("--distance-mm", f->distance, "Viewing (working) distance, mm");
-  c->add_option("--register", f->reg, "none (default; sizes must match), auto (AKAZE + RANSAC + ECC) or points FILE")
-      ->expected(1, 2);
+  CLI::Option* reg =
+      c->add_option("--register", f->reg, "none (default; sizes must match), auto (AKAZE + RANSAC + ECC) or points FILE")
+          ->expected(1, 2)
+          ->allow_extra_args(false)
+          ->type_name("MODE [FILE]");
   c->add_option("--mask", f->mask, "Mask image of the reference's size: statistics also inside / outside it");
   c->add_option("--filters", f->filters, "S-CIELAB filters: paper (default) or isetcam");
   c->add_option("--observer", f->observer, "S-CIELAB opponent transform for the 2 (default) or 10 degree observer");
-  // --pairs makes the positional images optional; it is handled as soon as it is parsed so that the
-  // requirement check (and --register's argument counting) sees the change.
-  c->add_option_function<std::string>(
-       "--pairs",
-       [f, ref, tst](const std::string& v) {
-         f->pairs = v;
-         ref->required(false);
-         tst->required(false);
-       },
-       "Batch: CSV with columns reference,test[,mask][,points][,name]; writes OUT/<name>/ and OUT/summary.csv")
-      ->trigger_on_parse();
-  c->callback([f] {
-    CompareRequest req = buildRequest(*f);
+  c->add_option("--pairs", f->pairs,
+                "Batch: CSV with columns reference,test[,mask][,points][,name]; writes OUT/<name>/ and OUT/summary.csv");
+  c->callback([f, c, ref, tst, reg] {
+    std::vector<std::string> images;
+    CompareFlags g = *f;
+    g.reg.clear();
+    collectImagesAndRegister(*c, ref, tst, reg, images, g.reg);
+    if (images.size() > 2)
+      throw InputError("compare", "expected the two images REFERENCE TEST, got " + std::to_string(images.size()) +
+                                      " arguments ('" + images[0] + "', '" + images[1] + "', '" + images[2] + "', ...)");
+    g.reference = images.size() > 0 ? images[0] : std::string();
+    g.test = images.size() > 1 ? images[1] : std::string();
+    if (!g.pairs.empty() && !images.empty())
+      throw InputError("--pairs", "give either REFERENCE TEST or --pairs CSV, not both");
+    CompareRequest req = buildRequest(g);
     if (!req.pairsCsv.empty())
       runComparePairs(req);
     else

@@ -54,7 +54,15 @@ Box2 Dent::support() const { return segmentBox(p_.center_uv, p_.end_uv, p_.radiu
 
 Box2 Dent::maskBox() const { return segmentBox(p_.center_uv, p_.end_uv, float(mask_radius_)); }
 
+bool Dent::needsGeometry(const Box2& chart) const {
+  const double max_slope = 8.0 * p_.depth_mm / (3.0 * std::sqrt(3.0) * p_.radius_mm);
+  if (max_slope > std::tan(15.0 * kPi / 180.0)) return true;
+  Box2 b = support();
+  return b.lo.x < chart.lo.x || b.lo.y < chart.lo.y || b.hi.x > chart.hi.x || b.hi.y > chart.hi.y;
+}
+
 void Dent::shade(const DefectQuery& q, DefectShading& s) const {
+  if (displaced_) return;
   // Distances in the chart are in UV mm; the chart's local stretch converts them to surface mm.
   double du, dv;
   offset(q.uv, q.mm_per_uv, du, dv);

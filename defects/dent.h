@@ -40,6 +40,13 @@ class Dent final : public Defect {
     return float(height(std::sqrt(du * du + dv * dv)));
   }
   bool isCrease() const { return is_crease_; }
+  // A displaced dent is in the geometry: it keeps its label but adds no bump on top.
+  void setDisplaced(bool d) { displaced_ = d; }
+  bool wantsDisplacement() const override { return displaced_; }
+  // The default rule for `displacement: auto` (blinn-bump.md §8.4): true geometry when the steepest
+  // tilt exceeds 15 degrees (bump mapping's small-slope assumption fails), or when the dent comes
+  // within its radius of the chart's outline (so the silhouette changes there).
+  bool needsGeometry(const Box2& chart) const;
   nlohmann::json attributes() const override;
 
   // Profile and its radial derivative (exposed for tests).
@@ -54,6 +61,7 @@ class Dent final : public Defect {
   DentParams p_;
   double mask_radius_;
   bool is_crease_ = false;
+  bool displaced_ = false;
 };
 
 }  // namespace dg

@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cmath>
+#include <iostream>
 #include <limits>
 #include <map>
 #include <memory>
@@ -157,11 +158,12 @@ void addCompareCommand(CLI::App& app) {
           ->allow_extra_args(false)
           ->type_name("MODE [FILE]");
   c->add_option("--mask", f->mask, "Mask image of the reference's size: statistics also inside / outside it");
-  c->add_option("--filters", f->filters, "S-CIELAB filters: paper (default) or isetcam");
-  c->add_option("--observer", f->observer, "S-CIELAB opponent transform for the 2 (default) or 10 degree observer");
+  CLI::Option* oFilters = c->add_option("--filters", f->filters, "S-CIELAB filters: paper (default) or isetcam");
+  CLI::Option* oObserver =
+      c->add_option("--observer", f->observer, "S-CIELAB opponent transform for the 2 (default) or 10 degree observer");
   c->add_option("--pairs", f->pairs,
                 "Batch: CSV with columns reference,test[,mask][,points][,name]; writes OUT/<name>/ and OUT/summary.csv");
-  c->callback([f, c, ref, tst, reg] {
+  c->callback([f, c, ref, tst, reg, oFilters, oObserver] {
     std::vector<std::string> images;
     CompareFlags g = *f;
     g.reg.clear();
@@ -174,6 +176,12 @@ void addCompareCommand(CLI::App& app) {
     if (!g.pairs.empty() && !images.empty())
       throw InputError("--pairs", "give either REFERENCE TEST or --pairs CSV, not both");
     CompareRequest req = buildRequest(g);
+    // Options that the chosen metric does not use are accepted but said so.
+    const SpatialMetric m = req.options.metric.metric;
+    if (m != SpatialMetric::Scielab && (oFilters->count() || oObserver->count()))
+      std::cerr << "compare: note: --filters and --observer apply to --metric scielab only; ignored\n";
+    if (m == SpatialMetric::Cielab && (f->oSpd->count() || f->oDpi->count() || f->oPitch->count()))
+      std::cerr << "compare: note: --metric cielab does not filter; the viewing geometry is not used\n";
     if (!req.pairsCsv.empty())
       runComparePairs(req);
     else

@@ -278,6 +278,15 @@ Field buildSchema() {
   def.variant_docs["dent"] = "Round dent or crease, rendered by bump mapping (Blinn 1978) with a C1 "
                              "polynomial bowl profile across its centre point or line.";
   Field region = def.variants["dent"][4], center = def.variants["dent"][5];
+  Field disp = enumeration("displacement", {"auto", "bump", "geometry"}, "auto",
+                           "How the dent is rendered: bump mapping only, true geometry (the part is "
+                           "refined and displaced for this sample, so silhouettes change), or auto: "
+                           "geometry when the steepest tilt exceeds 15 degrees or the dent reaches the "
+                           "part's outline, bump otherwise.");
+  Field disp_edge = num("displacement_edge_mm", "mm", 1.0, 0.05, 20,
+                        "Largest triangle edge inside a displaced dent.", false);
+  def.variants["dent"].push_back(disp);
+  def.variants["dent"].push_back(disp_edge);
   def.variants["dent"].push_back(num("length_mm", "mm", 0, 0, 2000,
                                      "Length of the crease line through the centre; 0 = a round dent."));
   def.variants["dent"].push_back(num("angle_deg", "deg", 0, -360, 360,
@@ -288,7 +297,7 @@ Field buildSchema() {
       num("cluster_radius_mm", "mm", 80, 1, 2000, "Radius of the area a cluster's dents fall in."),
       num("radius_mm", "mm", 6, 0.5, 100, "Radius of each dent."),
       num("depth_mm", "mm", 0.4, 0, 10, "Depth of each dent."),
-      def.variants["dent"][3], region, center};
+      def.variants["dent"][3], region, center, disp, disp_edge};
   def.variant_docs["hail"] = "A hail cluster: many small round dents scattered in a disc; each dent "
                              "is its own instance of class dent.";
   def.variants["rust"] = {

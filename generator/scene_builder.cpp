@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "defects/dent.h"
 #include "defects/weathering.h"
+#include "render/displacement.h"
 #include "render/mesh_io.h"
 #include "render/parts.h"
 
@@ -302,6 +303,7 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
   Box2 uvb = ds.part->uvBounds();
   json dj = json::array();
   const Value& groups = root["defects"];
+  float displace_edge = 1e30f;
   for (size_t g = 0; g < groups.items.size(); ++g) {
     const Value& d = groups.items[g];
     int count = int(sampleNumber(d["count"], rng, rec));
@@ -349,6 +351,9 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
           dp.mask_threshold = float(d["mask_threshold"].num());
           for (auto& kv : one.items()) local[kv.key() + "#" + std::to_string(j)] = kv.value();
           auto dent = std::make_unique<Dent>(dp);
+          std::string mode = d["displacement"].str();
+          dent->setDisplaced(mode == "geometry" || (mode == "auto" && dent->needsGeometry(uvb)));
+          if (dent->wantsDisplacement()) displace_edge = std::min(displace_edge, float(d["displacement_edge_mm"].num()));
           uint16_t id = uint16_t(s.defects->size() + 1);
           dent->setInstanceId(id);
           InstanceInfo info;
@@ -373,7 +378,11 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
         Vec2f half(0.5f * len * std::cos(ang), 0.5f * len * std::sin(ang));
         dp.center_uv = center - half;
         dp.end_uv = center + half;
-        defect = std::make_unique<Dent>(dp);
+        auto dent = std::make_unique<Dent>(dp);
+        std::string mode = d["displacement"].str();
+        dent->setDisplaced(mode == "geometry" || (mode == "auto" && dent->needsGeometry(uvb)));
+        if (dent->wantsDisplacement()) displace_edge = std::min(displace_edge, float(d["displacement_edge_mm"].num()));
+        defect = std::move(dent);
       } else if (type == "rust") {
         RustParams rp;
         std::string origin = sampleValue(d["origin"], rng, local).get<std::string>();
@@ -434,9 +443,36 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
     }
   }
   if (s.defects->size() > 65535) throw InputError(c.file, groups.line, groups.column, "more than 65535 defects in one sample");
+  // Dents rendered as geometry: this sample gets its own refined and displaced copy of the part
+  // (and its own BVH); every other sample keeps sharing the dataset's part.
+  std::vector<const Defect*> displaced;
+  for (auto& d : *s.defects)
+    if (d->wantsDisplacement()) displaced.push_back(d.get());
+  s.scene.part = ds.part;
+  if (!displaced.empty()) {
+    DisplacementOptions opt;
+    opt.max_edge_mm = displace_edge;
+    DisplacementStats st;
+    try {
+      s.scene.part = std::make_shared<PartGeometry>(displaceMesh(ds.part->mesh(), displaced, opt, &st));
+    } catch (const std::runtime_error& e) {
+      throw InputError(c.file, groups.line, groups.column,
+                       "'defects': cannot displace the part for sample " + std::to_string(index) + ": " + e.what() +
+                           " (raise displacement_edge_mm or use displacement: bump)");
+    }
+    meta["displacement"] = {{"dents", displaced.size()},
+                            {"max_edge_mm", displace_edge},
+                            {"triangles_split", st.triangles_split},
+                            {"vertices_moved", st.vertices_moved},
+                            {"triangles", s.scene.part->mesh().triangleCount()}};
+  }
+  auto renderedAs = [&](uint16_t id) { return (*s.defects)[id - 1]->wantsDisplacement() ? "geometry" : "bump"; };
+  for (auto& inst : s.instances)
+    if (inst.cls == DefectClass::Dent) inst.attributes["rendered_as"] = renderedAs(inst.id);
+  for (auto& e : dj)
+    if (e["class"] == "dent") e["attributes"]["rendered_as"] = renderedAs(uint16_t(e["instance_id"].get<int>()));
   meta["defects"] = dj;
   meta["sampled"] = rec;
-  s.scene.part = ds.part;
   s.scene.defects = s.defects.get();
   s.scene.defect_index = DefectIndex(*s.defects, uvb);
   s.meta = std::move(meta);

@@ -116,3 +116,36 @@ TEST(Render, WhiteFurnaceOfTheIntegrator) {
   EXPECT_NEAR(mean, 0.8, 0.01);
   for (float v : f.rgb.data) EXPECT_LT(v, 1.0f);
 }
+
+TEST(Render, DeepDentsBecomeGeometryAndMoveTheSurface) {
+  // A 20 mm dent 10 mm deep tilts the surface by ~38 degrees: `auto` renders it as geometry, so
+  // the depth at its centre grows by the dent's depth; as `bump` the surface stays where it was.
+  auto depthAtCentre = [](const std::string& mode) {
+    std::string cfg = plateConfig("defects:\n  - type: dent\n    count: 1\n    radius_mm: 20\n    depth_mm: 10\n"
+                                  "    center: [0.5, 0.5]\n    displacement: " + mode + "\n", 64, 1);
+    Dataset ds = prepareDataset(parseConfig(cfg, "test.yaml"));
+    Sample s = makeSample(ds, 1, 0);
+    s.settings.want_rgb = false;
+    s.settings.want_depth = true;
+    RenderFrame f = render(s.scene, s.settings);
+    // Pixel 32 is 0.25 px from the optical axis (cx = 31.5): 0.125 mm from the dent's centre.
+    return std::make_pair(f.depth(32, 32), s.meta.contains("displacement"));
+  };
+  auto [d_auto, displaced_auto] = depthAtCentre("auto");
+  auto [d_bump, displaced_bump] = depthAtCentre("bump");
+  auto [d_geom, displaced_geom] = depthAtCentre("geometry");
+  EXPECT_TRUE(displaced_auto);
+  EXPECT_FALSE(displaced_bump);
+  EXPECT_TRUE(displaced_geom);
+  EXPECT_NEAR(d_bump, 500.0f, 1e-3);
+  EXPECT_NEAR(d_auto, 510.0f, 0.02);
+  EXPECT_NEAR(d_geom, 510.0f, 0.02);
+}
+
+TEST(Render, ShallowDentsStayBumpsUnderAuto) {
+  std::string cfg = plateConfig(oneDent(30, 0.5), 32, 1);
+  Dataset ds = prepareDataset(parseConfig(cfg, "test.yaml"));
+  Sample s = makeSample(ds, 1, 0);
+  EXPECT_FALSE(s.meta.contains("displacement"));
+  EXPECT_EQ(s.scene.part.get(), ds.part.get());  // the shared BVH is reused
+}

@@ -160,7 +160,15 @@ Field buildSchema() {
       num("flake_roughness", "", 0.35, 0.02, 1, "Roughness of the flakes' glossy lobe."),
       num("clear_coat_roughness", "", 0.05, 0.02, 1, "Roughness of the clear coat."),
       num("clear_coat_ior", "", 1.5, 1.0, 3.0, "Index of refraction of the clear coat.", true, true),
-      micro};
+      micro,
+      num("orange_peel_um", "um", 2, 0, 50, "RMS height of the clear coat's orange peel (Nilsson 2008 §4.3.2)."),
+      num("orange_peel_wavelength_mm", "mm", 3, 0.2, 50, "Wavelength of the orange peel's coarsest octave."),
+      num("flake_size_mm", "mm", 0.03, 0.005, 1, "Size of a metallic flake."),
+      num("flake_density", "", 0.3, 0, 1, "Fraction of flake-grid cells holding a flake."),
+      num("flake_tilt_deg", "deg", 12, 0, 45, "Spread of the flakes' normals (sparkle directions)."),
+      num("sparkle", "", 1, 0, 1, "Strength of resolved flakes' sparkles (0 = smooth flake lobe only); "
+          "sparkles fade as the pixel footprint covers many flakes."),
+      num("color_variation", "", 0.03, 0, 0.3, "Standard deviation of the slow variation of the base colour.")};
   mat.variant_docs["car_paint"] = "Clear coat over a base coat of colour and metallic flakes.";
   mat.variants["metal"] = {enumeration("metal", metalNames(), "steel",
                                        "Bare metal, by name; complex IOR per RGB channel (see Metals below).",

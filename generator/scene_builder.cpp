@@ -192,6 +192,27 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
     m.flake_roughness = float(sampleNumber(mv["flake_roughness"], rng, rec));
     m.coat_roughness = float(sampleNumber(mv["clear_coat_roughness"], rng, rec));
     m.coat_ior = float(sampleNumber(mv["clear_coat_ior"], rng, rec));
+    PaintVariationParams pv;
+    pv.orange_peel_amplitude_um = float(sampleNumber(mv["orange_peel_um"], rng, rec));
+    pv.orange_peel_wavelength_mm = float(sampleNumber(mv["orange_peel_wavelength_mm"], rng, rec));
+    pv.flake_size_mm = float(sampleNumber(mv["flake_size_mm"], rng, rec));
+    pv.flake_density = float(sampleNumber(mv["flake_density"], rng, rec));
+    pv.flake_tilt_deg = float(sampleNumber(mv["flake_tilt_deg"], rng, rec));
+    pv.sparkle_intensity = float(sampleNumber(mv["sparkle"], rng, rec));
+    pv.color_variation = float(sampleNumber(mv["color_variation"], rng, rec));
+    pv.seed = hashKey(seed, index, 0x9a17);
+    // Nothing to vary: no per-point work at all.
+    if (pv.orange_peel_amplitude_um > 0 || (pv.sparkle_intensity > 0 && pv.flake_density > 0) ||
+        pv.color_variation > 0)
+      s.scene.paint = std::make_shared<PaintVariation>(pv);
+    mj["paint_variation"] = {{"orange_peel_um", pv.orange_peel_amplitude_um},
+                             {"orange_peel_wavelength_mm", pv.orange_peel_wavelength_mm},
+                             {"flake_size_mm", pv.flake_size_mm},
+                             {"flake_density", pv.flake_density},
+                             {"flake_tilt_deg", pv.flake_tilt_deg},
+                             {"sparkle", pv.sparkle_intensity},
+                             {"color_variation", pv.color_variation},
+                             {"seed", pv.seed}};
     mj.update({{"base_color", toJson(m.base_color)},
                {"flake_amount", m.flake_amount},
                {"flake_roughness", m.flake_roughness},

@@ -450,8 +450,18 @@ Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi) {
       const Rgb base = clamp01(m.base_color);
       Rgb layer = base * ((1.0f - fa) * kInvPiF);
       if (fa > 0.0f) {
-        const float mf = microfacetReflection(m.model, alphaOf(m.flake_roughness), wo, wi, h);
-        layer += schlick(cos_oh, base) * (fa * mf);
+        float mf;
+        if (m.flake_normal.z < 1.0f) {
+          // A tilted flake: its microfacet lobe lives in the flake's own frame.
+          const Frame ff = Frame::fromNormal(m.flake_normal);
+          const Vec3f o = ff.toLocal(wo), i = ff.toLocal(wi);
+          mf = (o.z > 0.0f && i.z > 0.0f)
+                   ? microfacetReflection(m.model, alphaOf(m.flake_roughness), o, i, normalize(o + i))
+                   : 0.0f;
+        } else {
+          mf = microfacetReflection(m.model, alphaOf(m.flake_roughness), wo, wi, h);
+        }
+        layer += schlick(cos_oh, base) * (fa * mf * m.flake_tint_scale);
       }
       return layer * through + Rgb(spec);
     }
@@ -471,8 +481,16 @@ float pdfBsdf(const Material& m, Vec3f wo, Vec3f wi) {
   float pdf = 0.0f;
   if (lp.p[kSpec] > 0.0f) pdf += lp.p[kSpec] * microfacetPdf(m.model, spec_alpha, wo, h);
   if (lp.p[kDiffuse] > 0.0f) pdf += lp.p[kDiffuse] * wi.z * kInvPiF;
-  if (lp.p[kFlake] > 0.0f)
-    pdf += lp.p[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), wo, h);
+  if (lp.p[kFlake] > 0.0f) {
+    if (m.flake_normal.z < 1.0f) {
+      const Frame ff = Frame::fromNormal(m.flake_normal);
+      const Vec3f o = ff.toLocal(wo), i = ff.toLocal(wi);
+      if (o.z > 0.0f && i.z > 0.0f)
+        pdf += lp.p[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), o, normalize(o + i));
+    } else {
+      pdf += lp.p[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), wo, h);
+    }
+  }
   return pdf;
 }
 
@@ -504,8 +522,15 @@ bool sampleBsdf(const Material& m, Vec3f wo, float u0, Vec2f u, BsdfSample& out)
     else
       alpha = alphaOf(m.kind == MaterialKind::CarPaint ? m.coat_roughness : m.roughness);
     Vec3f h;
-    if (!sampleMicrofacetNormal(m.model, alpha, wo, u, h)) return false;
-    wi = reflectAbout(wo, h);
+    if (lobe == kFlake && m.flake_normal.z < 1.0f) {
+      const Frame ff = Frame::fromNormal(m.flake_normal);
+      const Vec3f o = ff.toLocal(wo);
+      if (!(o.z > 0.0f) || !sampleMicrofacetNormal(m.model, alpha, o, u, h)) return false;
+      wi = ff.toWorld(reflectAbout(o, h));
+    } else {
+      if (!sampleMicrofacetNormal(m.model, alpha, wo, u, h)) return false;
+      wi = reflectAbout(wo, h);
+    }
   }
   if (!(wi.z > 0.0f)) return false;
   out.wi = wi;

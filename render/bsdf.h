@@ -35,6 +35,11 @@ struct Material {
   float flake_roughness = 0.35f;  // glossiness of the flake lobe
   float coat_roughness = 0.05f;
   float coat_ior = 1.5f;
+  // CarPaint flake lobe: the normal of the flake under the shading point, in the local shading
+  // frame ((0, 0, 1) = the smooth lobe of the flake population), and a scale on its tint (passive
+  // flakes, Nilsson 2008 §4.3.5). Set per shading point by the paint variation.
+  Vec3f flake_normal{0.0f, 0.0f, 1.0f};
+  float flake_tint_scale = 1.0f;
   // RoughDiffuse: Oren-Nayar roughness, the standard deviation of the facet slope angle in
   // RADIANS (not the perceptual roughness above). 0 = Lambert; the digest's rust/patina range is
   // 0..1. Values are clamped to [0, pi/2]; NaN counts as 0.

@@ -105,6 +105,7 @@ class Tracer {
       : s_(s), st_(st), mesh_(s.part->mesh()), has_defects_(s.defects && !s.defects->empty()) {
     if (has_defects_)
       for (auto& d : *s.defects) needs_cavity_ |= d->needsCavity();
+    has_paint_ = s.paint != nullptr && s.material.kind == MaterialKind::CarPaint;
   }
 
   SurfacePoint surface(const Hit& h, const DiffRay& r, bool need_footprint) const {
@@ -158,16 +159,20 @@ class Tracer {
   // (Blinn 1978 in surface-gradient form: n' = normalize(n - grad_s F), shared/reference/
   // blinn-bump.md §3b and §8.3), and weathering may replace the surface's look (returned cover and
   // appearance).
-  DefectShading applyDefects(SurfacePoint& sp, Vec3f wo_world, const Hit& h) const {
+  // `extra_grad` is a height gradient from the surface itself (the clear coat's orange peel).
+  DefectShading applyDefects(SurfacePoint& sp, Vec3f wo_world, const Hit& h, Vec2f extra_grad = {0, 0}) const {
     DefectShading ds;
-    if (!has_defects_ || !sp.uv_ok) return ds;
-    DefectQuery q;
-    q.uv = sp.uv;
-    q.duv_dx = sp.duvdx;
-    q.duv_dy = sp.duvdy;
-    q.mm_per_uv = sp.mm_per_uv;
-    if (needs_cavity_) q.cavity = s_.part->occlusionAt(h.prim, h.b1, h.b2);
-    s_.defect_index.forEach(sp.uv, q.footprint(), [&](const Defect& d) { d.shade(q, ds); });
+    if (!sp.uv_ok) return ds;
+    ds.height_grad = extra_grad;
+    if (has_defects_) {
+      DefectQuery q;
+      q.uv = sp.uv;
+      q.duv_dx = sp.duvdx;
+      q.duv_dy = sp.duvdy;
+      q.mm_per_uv = sp.mm_per_uv;
+      if (needs_cavity_) q.cavity = s_.part->occlusionAt(h.prim, h.b1, h.b2);
+      s_.defect_index.forEach(sp.uv, q.footprint(), [&](const Defect& d) { d.shade(q, ds); });
+    }
     if (ds.height_grad.x == 0 && ds.height_grad.y == 0) return ds;
     Vec3f N = cross(sp.dpdu, sp.dpdv);
     float n2 = dot(N, N);
@@ -182,6 +187,27 @@ class Tracer {
     if (c < 0.02f) n = normalize(n + wo_world * (0.02f - c));
     sp.ns = n;
     return ds;
+  }
+
+  static float footprintOf(const SurfacePoint& sp) {
+    return std::max(std::max(std::fabs(sp.duvdx.x), std::fabs(sp.duvdx.y)),
+                    std::max(std::fabs(sp.duvdy.x), std::fabs(sp.duvdy.y)));
+  }
+
+  // Car paint's variation at this point (Nilsson 2008 §4.3): base colour scaled, passive flakes
+  // tint the flake lobe, and where a resolved flake is picked (probability = its sparkle weight)
+  // the flake lobe becomes a near-mirror around that flake's normal; elsewhere the smooth flake
+  // lobe keeps the rest of the flake energy, so the mean matches flake_amount.
+  static void applyPaint(Material& m, const PaintSample& ps) {
+    m.base_color *= ps.base_color_scale;
+    m.flake_tint_scale = ps.flake_specular_scale;
+    if (ps.use_flake_lobe) {
+      m.flake_amount = 1.0f;
+      m.flake_roughness = 0.1f;
+      m.flake_normal = ps.flake_normal_local;
+    } else {
+      m.flake_amount = PaintVariation::residualFlakeAmount(m.flake_amount, ps);
+    }
   }
 
   // The material at a shading point: the part's, or with probability `cover` the weathering's
@@ -231,13 +257,20 @@ class Tracer {
         break;
       }
       if (depth >= st_.max_bounces) break;
-      SurfacePoint sp = surface(h, ray, has_defects_);
+      SurfacePoint sp = surface(h, ray, has_defects_ || has_paint_);
       Vec3f wo_w = -ray.d;
-      DefectShading ds = applyDefects(sp, wo_w, h);
+      Material m = s_.material;
+      Vec2f peel(0.0f, 0.0f);
+      if (has_paint_ && sp.uv_ok) {
+        PaintSample ps = s_.paint->evaluate(sp.uv, footprintOf(sp), rng.uniform());
+        peel = ps.coat_height_grad;
+        applyPaint(m, ps);
+      }
+      DefectShading ds = applyDefects(sp, wo_w, h, peel);
       Frame fr = Frame::fromNormalTangent(sp.ns, sp.dpdu);
       Vec3f wo = fr.toLocal(wo_w);
       if (wo.z <= 0) break;
-      const Material m = ds.cover > 0 ? weathered(s_.material, ds, rng.uniform()) : s_.material;
+      if (ds.cover > 0) m = weathered(m, ds, rng.uniform());
       float eps = rayEpsilon(sp.p);
       Vec3f origin = sp.p + sp.ng * eps;
 
@@ -314,6 +347,7 @@ class Tracer {
   const TriangleMesh& mesh_;
   bool has_defects_;
   bool needs_cavity_ = false;
+  bool has_paint_ = false;
 };
 
 DiffRay cameraRay(const RayGenerator& gen, float px, float py) {

@@ -12,6 +12,7 @@
 #include "render/bsdf.h"
 #include "render/camera.h"
 #include "render/lights.h"
+#include "render/paint.h"
 #include "render/scene.h"
 
 namespace dg {
@@ -23,6 +24,7 @@ struct RenderScene {
   Camera camera;
   const DefectList* defects = nullptr;  // may be null or empty
   DefectIndex defect_index;             // empty when there are no defects
+  std::shared_ptr<const PaintVariation> paint;  // car paint's orange peel and flakes; null = none
 };
 
 struct RenderSettings {

@@ -58,8 +58,12 @@ void makeContactSheet(const std::string& dir, const std::string& out_png, int co
     if (img.empty()) throw InputError(p.string(), "cannot read image");
     if (img.depth() != CV_8U) img.convertTo(img, CV_8U, 1.0 / 257.0);
     std::string stem = p.stem().string();
-    cv::Mat sem = cv::imread((d / "masks" / (stem + "_semantic.png")).string(), cv::IMREAD_UNCHANGED);
-    cv::Mat inst = cv::imread((d / "masks" / (stem + "_instance.png")).string(), cv::IMREAD_UNCHANGED);
+    fs::path sem_p = d / "masks" / (stem + "_semantic.png"), inst_p = d / "masks" / (stem + "_instance.png");
+    cv::Mat sem, inst;
+    if (fs::is_regular_file(sem_p) && fs::is_regular_file(inst_p)) {
+      sem = cv::imread(sem_p.string(), cv::IMREAD_UNCHANGED);
+      inst = cv::imread(inst_p.string(), cv::IMREAD_UNCHANGED);
+    }
     if (!sem.empty() && !inst.empty()) {
       inst.convertTo(inst, CV_32S);
       img = overlay(img, sem, inst);

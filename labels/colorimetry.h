@@ -17,9 +17,10 @@ using Vec3 = cv::Vec3d;
 double srgbDecode(double encoded);
 double srgbEncode(double linear);
 
-// Linear sRGB (Rec. 709 primaries, D65) -> XYZ, IEC 61966-2-1 matrix, times 100 so that white has
-// Y = 100. Its white, kSrgbWhite, is the row sums: (95.05, 100.00, 108.90) to four digits
-// (the 4-digit matrix gives 95.0456 / 100 / 108.9058; tabulated D65 2-degree is 95.047, 100, 108.883).
+// Linear sRGB (Rec. 709 primaries, D65) -> XYZ, the 4-digit IEC 61966-2-1 matrix times 100, so that
+// white has Y = 100. srgbWhiteXyz() is its row sums, (95.05, 100.00, 108.90): the white of the images,
+// used as the CIELAB white so that RGB white is exactly neutral (the tabulated D65 2-degree white,
+// (95.047, 100, 108.883), differs by under 0.02 Delta E).
 const cv::Matx33d& linearSrgbToXyz();
 const cv::Matx33d& xyzToLinearSrgb();
 Vec3 srgbWhiteXyz();

@@ -147,7 +147,9 @@ std::string metricLabel(const MetricOptions& m) {
 
 using Writer = std::function<void(const fs::path&)>;
 
-void writeStaged(const fs::path& outDir, const std::vector<std::pair<std::string, Writer>>& files) {
+// `stale`: outputs of an earlier run that this run does not write (removed with the old report).
+void writeStaged(const fs::path& outDir, const std::vector<std::pair<std::string, Writer>>& files,
+                 const std::vector<std::string>& stale) {
   std::error_code ec;
   bool created = false;
   if (!fs::exists(outDir, ec)) {
@@ -184,6 +186,7 @@ void writeStaged(const fs::path& outDir, const std::vector<std::pair<std::string
     files.back().second(stage / files.back().first);
     // The old completion mark goes first, so that a reader never pairs it with new files.
     fs::remove(outDir / "report.json", ec);
+    for (const std::string& name : stale) fs::remove(outDir / name, ec);
     for (const auto& [name, write] : files) fs::rename(stage / name, outDir / name);
     fs::remove_all(stage);
   } catch (...) {
@@ -822,7 +825,9 @@ json runCompare(const CompareRequest& req) {
                      f.close();
                      if (!f) throw std::runtime_error("cannot write " + p.string());
                    }});
-  writeStaged(req.outDir, files);
+  std::vector<std::string> stale;
+  if (g.mode == RegistrationMode::None) stale.push_back("registered_test.png");
+  writeStaged(req.outDir, files, stale);
   std::cerr << "compare: mean " << fmt(r.all.mean, 2) << ", median " << fmt(r.all.median, 2) << ", p95 "
             << fmt(r.all.p95, 2) << ", max " << fmt(r.all.max, 2) << ", " << fmt(r.all.pctGe10, 2)
             << "% of " << r.all.pixels << " valid pixels >= 10";

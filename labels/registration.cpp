@@ -68,6 +68,10 @@ cv::Point2d apply(const cv::Matx33d& H, const cv::Point2d& p) {
 // AKAZE keypoints and descriptors, keypoints in a canonical order (strongest first, ties by
 // position) so that matching does not depend on the order in which threads found them.
 void features(const cv::Mat& g, std::vector<cv::KeyPoint>& kps, cv::Mat& desc) {
+  kps.clear();
+  desc.release();
+  // AKAZE's scale space needs some room (it asserts on tiny images); such images have no features.
+  if (std::min(g.cols, g.rows) < 32) return;
   auto akaze = cv::AKAZE::create();
   akaze->detect(g, kps);
   if (kps.size() < 200) {  // low-contrast image: lower the detector threshold (default 0.001)
@@ -189,7 +193,8 @@ void warpToReference(const cv::Mat& test, const cv::Matx33d& H, cv::Size refSize
         const double qz = Hi(2, 0) * x + Hi(2, 1) * y + Hi(2, 2);
         const double qx = (Hi(0, 0) * x + Hi(0, 1) * y + Hi(0, 2)) / qz;
         const double qy = (Hi(1, 0) * x + Hi(1, 1) * y + Hi(1, 2)) / qz;
-        v[x] = (qz > 0 && qx >= 0 && qx <= w && qy >= 0 && qy <= h) ? 255 : 0;
+        // A hair of tolerance so that an identity-like transform keeps the last row and column.
+        v[x] = (qz > 0 && qx >= -1e-7 && qx <= w + 1e-7 && qy >= -1e-7 && qy <= h + 1e-7) ? 255 : 0;
       }
     }
   });

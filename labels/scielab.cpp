@@ -23,7 +23,8 @@ struct PublishedGaussian {
 
 // Zhang and Wandell (1996), table of the three channel filters: (spread s in degrees, weight) of
 // w exp(-(x^2 + y^2) / s^2). The weights of a channel do not sum to 1 in the table (0.918, 0.861,
-// 0.859); they are renormalised below, which gives the weights of the distribution code.
+// 0.859); they are renormalised below, which gives the weights of the distribution code to 3 or 4
+// digits (0.921 / 0.918 = 1.00327).
 const std::vector<PublishedGaussian> kPaperTable[3] = {
     {{0.0283, 0.921}, {0.133, 0.105}, {4.336, -0.108}},
     {{0.0392, 0.531}, {0.494, 0.330}},

@@ -249,7 +249,9 @@ TEST(ScielabFilters, SupportKernelSumsAndHalfMaxima) {
 }
 
 TEST(ScielabFilters, TwoDimensionalFilteringEqualsSeparable) {
-  cv::Mat plane(97, 131, CV_32F);
+  // 1000 columns: the separable filter works in column tiles of about 900 pixels, so this also
+  // checks that the tiles join without a seam.
+  cv::Mat plane(97, 1000, CV_32F);
   cv::RNG rng(3);
   rng.fill(plane, cv::RNG::UNIFORM, -50, 50);
   for (auto conv : {ScielabFilters::Paper, ScielabFilters::Isetcam}) {
@@ -393,9 +395,9 @@ TEST(DeltaEMap, SpatialMetricsForgiveFineDetailOnTheHatsPair) {
 TEST(DeltaEMap, ResultsDoNotDependOnTheThreadCount) {
   ThreadCount restore;
   cv::Mat a = readRgb(kPhoto), b;
-  cv::resize(a, a, cv::Size(640, 600), 0, 0, cv::INTER_AREA);  // several row bands and column tiles
+  cv::resize(a, a, cv::Size(1850, 420), 0, 0, cv::INTER_AREA);  // 2 row bands, 3 column tiles
   cv::GaussianBlur(a, b, cv::Size(0, 0), 1.2);
-  b.at<cv::Vec3b>(300, 300) = cv::Vec3b(255, 0, 255);
+  b.at<cv::Vec3b>(300, 900) = cv::Vec3b(255, 0, 255);
   for (auto m : {SpatialMetric::Cielab, SpatialMetric::Scielab, SpatialMetric::Ycxcz}) {
     MetricOptions o;
     o.metric = m;

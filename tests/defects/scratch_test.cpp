@@ -1,0 +1,616 @@
+// Tests of the scratch geometry: the derivation values of shared/reference/bosch-grooves.md §7.A,
+// profile invariants, path queries against brute force, flattening bounds, fading, masks and the
+// placement helpers.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "defects/scratch.h"
+
+using namespace dg;
+
+namespace {
+constexpr double kDeg = kPi / 180.0;
+
+ToolSpec cone(double apex_deg, double tip_r = 0, double theta_deg = 0, double phi_deg = 0) {
+  ToolSpec t;
+  t.shape = ToolSpec::Shape::Cone;
+  t.apex_angle_rad = apex_deg * kDeg;
+  t.tip_radius_mm = tip_r;
+  t.theta_rad = theta_deg * kDeg;
+  t.phi_rad = phi_deg * kDeg;
+  return t;
+}
+
+// Distance from p to a polyline (double, brute force).
+double polyDist(const std::vector<Vec2d>& P, Vec2d p) {
+  double best = 1e300;
+  for (size_t i = 0; i + 1 < P.size(); ++i) {
+    Vec2d a = P[i], d = P[i + 1] - P[i];
+    double l2 = d.x * d.x + d.y * d.y;
+    double t = l2 > 0 ? std::clamp(((p.x - a.x) * d.x + (p.y - a.y) * d.y) / l2, 0.0, 1.0) : 0.0;
+    double ex = a.x + d.x * t - p.x, ey = a.y + d.y * t - p.y;
+    best = std::min(best, std::sqrt(ex * ex + ey * ey));
+  }
+  return best;
+}
+
+Vec2d cubicAt(const Vec2d c[4], double t) {
+  double u = 1 - t;
+  return c[0] * (u * u * u) + c[1] * (3 * u * u * t) + c[2] * (3 * u * t * t) + c[3] * (t * t * t);
+}
+
+Box2 box(float x0, float y0, float x1, float y1) {
+  Box2 b;
+  b.lo = {x0, y0};
+  b.hi = {x1, y1};
+  return b;
+}
+
+// Area of {inMask} over a box by midpoint sampling.
+double maskArea(const Scratch& s, Box2 b, double step) {
+  long n = 0;
+  for (double y = b.lo.y + 0.5 * step; y < b.hi.y; y += step)
+    for (double x = b.lo.x + 0.5 * step; x < b.hi.x; x += step) n += s.inMask(Vec2f{float(x), float(y)});
+  return n * step * step;
+}
+}  // namespace
+
+// ---- §7.A derivation values ------------------------------------------------------------------
+
+TEST(ScratchProcess, DepthFormulaValues) {
+  // §7.A.1: 0.182 sqrt(0.0155) - 0.014.
+  EXPECT_NEAR(scratchDepthMm(1, 100), 0.0086588172683, 1e-9);
+  // Spot checks of the digest's §1.4.3 table (µm, two decimals).
+  EXPECT_NEAR(scratchDepthMm(4, 30) * 1e3, 53.81, 0.006);
+  EXPECT_NEAR(scratchDepthMm(0.5, 60) * 1e3, 7.41, 0.006);
+  EXPECT_NEAR(scratchDepthMm(2, 200) * 1e3, 8.66, 0.006);
+  EXPECT_NEAR(scratchDepthMm(0.05, 30) * 1e3, 1.41, 0.006);
+  // Monotone in the force, inverse in the hardness.
+  EXPECT_LT(scratchDepthMm(1, 100), scratchDepthMm(1.5, 100));
+  EXPECT_GT(scratchDepthMm(1, 100), scratchDepthMm(1, 150));
+}
+
+TEST(ScratchProcess, DepthClampedAtZero) {
+  // §7.A.2: negative below F/H = 4.17e-4 in the fit; clamped to 0.
+  EXPECT_EQ(scratchDepthMm(0.04, 100), 0.0);   // F/H = 4.0e-4
+  EXPECT_EQ(scratchDepthMm(0.05, 200), 0.0);   // table entry -0.20 µm
+  EXPECT_EQ(scratchDepthMm(0.0, 100), 0.0);
+  EXPECT_GT(scratchDepthMm(0.0425, 100), 0.0);  // F/H = 4.25e-4
+  EXPECT_LT(scratchDepthMm(0.0425, 100), 1e-5);
+  // A zero depth gives a zero-width profile.
+  ProcessCrossSection cs = deriveCrossSectionForDepth(cone(120), 0.0);
+  EXPECT_EQ(cs.profile.width(), 0.0);
+  EXPECT_EQ(cs.profile.depth(), 0.0);
+}
+
+TEST(ScratchProcess, PeakSlopes) {
+  // §7.A.3.
+  EXPECT_NEAR(peakTanBetaRaw(std::tan(30 * kDeg)), 0.90647, 5e-6);
+  EXPECT_NEAR(peakBeta(30 * kDeg) / kDeg, 42.19, 0.005);
+  EXPECT_NEAR(peakBeta(45 * kDeg) / kDeg, 63.20, 0.005);
+  // Below alpha = 12.43 deg the fit is <= 0: clamped to the positive minimum.
+  EXPECT_LE(peakTanBetaRaw(std::tan(12.4 * kDeg)), 0.0);
+  EXPECT_GT(peakTanBetaRaw(std::tan(12.5 * kDeg)), 0.0);
+  EXPECT_DOUBLE_EQ(peakBeta(10 * kDeg), kMinPeakBetaRad);
+  EXPECT_DOUBLE_EQ(peakBeta(1 * kDeg), kMinPeakBetaRad);
+  EXPECT_GT(peakBeta(20 * kDeg), kMinPeakBetaRad);
+}
+
+TEST(ScratchProcess, WorkedExampleCone120And90) {
+  // §7.A.5: 120 deg cone (alpha = 30 deg): h/p = 0.7816, w_i/p = 1.3538, w_e/p = 0.8622.
+  const double p = scratchDepthMm(1, 100);
+  ProcessCrossSection cs = deriveCrossSection({cone(120), 1.0, 100.0, 1.0});
+  EXPECT_NEAR(cs.depth, p, 1e-15);
+  for (int s = 0; s < 2; ++s) {
+    EXPECT_NEAR(cs.alpha[s] / kDeg, 30.0, 1e-6);
+    EXPECT_NEAR(cs.h[s] / p, 0.7816027, 1e-6);
+    EXPECT_NEAR(cs.w_inner[s] / p, 1.3537755, 1e-6);
+    EXPECT_NEAR(cs.w_outer[s] / p, 0.8622491, 1e-6);
+    EXPECT_NEAR(cs.w_inner[s], cs.h[s] / std::tan(cs.alpha[s]), 1e-15);
+    EXPECT_NEAR(cs.w_outer[s], cs.h[s] / std::tan(cs.beta[s]), 1e-15);
+  }
+  EXPECT_NEAR(cs.groove_area, std::sqrt(3.0) * p * p, 1e-12 * p * p);
+  // Groove ~3.46 p wide, ~7.9 p with the peaks (digest §6.4).
+  EXPECT_NEAR((cs.b_right - cs.b_left) / p, 2 * std::sqrt(3.0), 1e-6);
+  EXPECT_NEAR(cs.profile.width() / p, 2 * (std::sqrt(3.0) + 1.3537755 + 0.8622491), 1e-5);
+  // 90 deg cone: beta = 63.2 deg, h = 0.815 p, w_e = 0.412 p.
+  ProcessCrossSection c90 = deriveCrossSectionForDepth(cone(90), 0.01);
+  EXPECT_NEAR(c90.beta[0] / kDeg, 63.204, 1e-3);
+  EXPECT_NEAR(c90.h[0] / 0.01, 0.81513, 1e-5);
+  EXPECT_NEAR(c90.w_outer[1] / 0.01, 0.41168, 1e-5);
+}
+
+TEST(ScratchProcess, VolumeConservation) {
+  // §7.A.4: the two peaks hold the groove's area, for symmetric and asymmetric tools.
+  std::vector<ToolSpec> tools = {cone(120), cone(90), cone(120, 0.2), cone(60, 0, 20, 90),
+                                 cone(40, 0.01, 45, -90), cone(60, 0, 25, 40)};
+  ToolSpec vick;
+  vick.shape = ToolSpec::Shape::Pyramid;
+  vick.apex_angle_rad = 136 * kDeg;
+  tools.push_back(vick);
+  vick.roll_rad = 45 * kDeg;
+  vick.theta_rad = 10 * kDeg;
+  vick.phi_rad = 70 * kDeg;
+  tools.push_back(vick);
+  for (const ToolSpec& t : tools) {
+    ProcessCrossSection cs = deriveCrossSection({t, 1.5, 60.0, 1.0});
+    const Profile& pr = cs.profile;
+    double A = pr.grooveArea();
+    EXPECT_NEAR(A, cs.groove_area, 1e-12 * A);
+    EXPECT_NEAR(pr.peakArea(), A, 1e-9 * A) << "apex " << t.apex_angle_rad / kDeg;
+    EXPECT_NEAR(pr.depth(), scratchDepthMm(1.5, 60), 1e-12);
+  }
+  // A pile-up fraction scales the peaks.
+  ProcessCrossSection half = deriveCrossSection({cone(120), 1.5, 60.0, 0.5});
+  EXPECT_NEAR(half.profile.peakArea(), 0.5 * half.profile.grooveArea(), 1e-9 * half.groove_area);
+  ProcessCrossSection none = deriveCrossSection({cone(120), 1.5, 60.0, 0.0});
+  EXPECT_EQ(none.profile.peakHeight(), 0.0);
+  EXPECT_EQ(none.profile.pts.size(), 3u);
+}
+
+TEST(ScratchProcess, ProfileInvariantsAndSigns) {
+  ProcessCrossSection cs = deriveCrossSection({cone(120, 0.2), 2.0, 60.0, 1.0});
+  const Profile& pr = cs.profile;
+  ASSERT_GE(pr.pts.size(), 7u);
+  EXPECT_EQ(pr.pts.front().y, 0.0);  // closed at the surface level
+  EXPECT_EQ(pr.pts.back().y, 0.0);
+  EXPECT_EQ(pr.layer.size(), pr.facets());
+  for (size_t k = 0; k + 1 < pr.pts.size(); ++k) EXPECT_LE(pr.pts[k].x, pr.pts[k + 1].x);
+  // Depth positive, groove below, peaks above; the lowest point is at -p.
+  EXPECT_GT(pr.depth(), 0.0);
+  EXPECT_NEAR(pr.depth(), scratchDepthMm(2, 60), 1e-12);
+  EXPECT_GT(pr.peakHeight(), 0.0);
+  for (const Vec2d& q : pr.pts) {
+    if (q.x > cs.b_left + 1e-12 && q.x < cs.b_right - 1e-12) {
+      EXPECT_LT(q.y, 0.0);
+    }
+    if (q.x < cs.b_left - 1e-12 || q.x > cs.b_right + 1e-12) {
+      EXPECT_GE(q.y, 0.0);
+    }
+  }
+  // heightAt is continuous (polyline) and 0 outside.
+  EXPECT_EQ(pr.heightAt(pr.bMin() - 1e-3), 0.0);
+  EXPECT_EQ(pr.heightAt(pr.bMax() + 1e-3), 0.0);
+  double prev = pr.heightAt(pr.bMin());
+  double maxjump = 0, db = pr.width() / 20000;
+  for (double b = pr.bMin() + db; b <= pr.bMax(); b += db) {
+    double h = pr.heightAt(b);
+    maxjump = std::max(maxjump, std::fabs(h - prev));
+    prev = h;
+  }
+  EXPECT_LT(maxjump, 3.0 * db);  // slopes are below ~tan(72 deg) here
+  EXPECT_NEAR(pr.heightAt(0.0), -pr.depth(), 1e-12);
+  // The groove lies in the 0.2 mm spherical tip at this depth (the cone starts 26.8 µm down):
+  // the wall angle is the sphere's, sin(alpha) = rho / r with rho the half-width at w = 0, up to
+  // the sampling of the sphere (chords within 1% of the depth).
+  double p = pr.depth(), rho = std::sqrt(2 * 0.2 * p - p * p);
+  EXPECT_NEAR(cs.b_right, rho, 0.01 * rho);
+  EXPECT_NEAR(cs.alpha[0], std::asin(rho / 0.2), 1.0 * kDeg);
+  EXPECT_NEAR(cs.alpha[1], cs.alpha[0], 1e-9);
+}
+
+TEST(ScratchProcess, ToolOrientation) {
+  const double p = 0.01;
+  // (0, phi) equals the un-rotated tool.
+  ProcessCrossSection a = deriveCrossSectionForDepth(cone(60), p);
+  ProcessCrossSection b = deriveCrossSectionForDepth(cone(60, 0, 0, 37), p);
+  ASSERT_EQ(a.profile.pts.size(), b.profile.pts.size());
+  for (size_t k = 0; k < a.profile.pts.size(); ++k) {
+    EXPECT_NEAR(a.profile.pts[k].x, b.profile.pts[k].x, 1e-12);
+    EXPECT_NEAR(a.profile.pts[k].y, b.profile.pts[k].y, 1e-12);
+  }
+  // Tilted across (phi = 90): the flanks in the tilt plane are at 30 +- 20 deg from vertical.
+  ProcessCrossSection c = deriveCrossSectionForDepth(cone(60, 0, 20, 90), p);
+  EXPECT_NEAR(c.alpha[0] / kDeg, 80.0, 1e-6);  // -B side steeper: the axis leans towards +B
+  EXPECT_NEAR(c.alpha[1] / kDeg, 40.0, 1e-6);
+  EXPECT_GT(std::fabs(c.h[0] - c.h[1]), 0.1 * c.h[0]);
+  // phi = -90 mirrors it.
+  ProcessCrossSection m = deriveCrossSectionForDepth(cone(60, 0, 20, -90), p);
+  EXPECT_NEAR(m.alpha[0], c.alpha[1], 1e-9);
+  EXPECT_NEAR(m.b_left, -c.b_right, 1e-9);
+  // Tilted along the scratch (phi = 0): still symmetric.
+  ProcessCrossSection d = deriveCrossSectionForDepth(cone(60, 0, 25, 0), p);
+  EXPECT_NEAR(d.alpha[0], d.alpha[1], 1e-6);
+  EXPECT_NEAR(d.b_left, -d.b_right, 1e-6 * p);
+  EXPECT_NEAR(d.h[0], d.h[1], 1e-6 * p);
+  // Vickers pyramid with a face across the path: alpha = 90 - 68 deg.
+  ToolSpec v;
+  v.shape = ToolSpec::Shape::Pyramid;
+  v.apex_angle_rad = 136 * kDeg;
+  ProcessCrossSection e = deriveCrossSectionForDepth(v, p);
+  EXPECT_NEAR(e.alpha[0] / kDeg, 22.0, 1e-9);
+  // theta_t > apex/2 across the scratch: the far flank overhangs and the sweep leaves a vertical
+  // wall; the profile stays monotone in b and the peaks still hold the groove's area.
+  ProcessCrossSection o = deriveCrossSectionForDepth(cone(40, 0, 45, -90), p);
+  EXPECT_NEAR(o.alpha[1] / kDeg, 90.0, 1e-9);
+  EXPECT_NEAR(o.alpha[0] / kDeg, 90.0 - 45.0 - 20.0, 1e-6);
+  EXPECT_NEAR(o.w_inner[1], o.h[1] / std::tan(kMaxPeakAlphaRad), 1e-15);
+  for (size_t k = 0; k + 1 < o.profile.pts.size(); ++k) EXPECT_LE(o.profile.pts[k].x, o.profile.pts[k + 1].x);
+  EXPECT_NEAR(o.profile.peakArea(), o.profile.grooveArea(), 1e-9 * o.groove_area);
+  // A tilt that puts the flank under the tip is rejected.
+  EXPECT_THROW(deriveCrossSectionForDepth(cone(120, 0, 35, 90), p), std::invalid_argument);
+  EXPECT_THROW(deriveCrossSectionForDepth(cone(5), p), std::invalid_argument);
+}
+
+TEST(ScratchProfile, ExplicitPolylineAndLayers) {
+  EXPECT_THROW(Profile::fromPolyline({{0, 0}, {1, -0.1}}), std::invalid_argument);  // open end
+  EXPECT_THROW(Profile::fromPolyline({{0, 0}, {-1, -0.1}, {1, 0}}), std::invalid_argument);
+  Profile v = Profile::fromPolyline({{-0.1, 0}, {0, -0.05}, {0, -0.05}, {0.1, 0}});
+  EXPECT_EQ(v.pts.size(), 3u);  // repeated point dropped
+  EXPECT_NEAR(v.grooveArea(), 0.1 * 0.05, 1e-15);
+  EXPECT_EQ(v.peakArea(), 0.0);
+  // Paint: clear 0.02, base 0.015, primer 0.01, steel substrate.
+  LayerStack paint{{{"clear", 0.02}, {"base", 0.015}, {"primer", 0.01}, {"steel", 0}}};
+  EXPECT_EQ(paint.layerAtDepth(0.0), 0);
+  EXPECT_EQ(paint.layerAtDepth(0.025), 1);
+  EXPECT_EQ(paint.layerAtDepth(0.05), 3);
+  Profile lv = v.withLayers(paint);
+  // Split at the interfaces 0.02, 0.035 and 0.045 on each flank (the bottom is at 0.05).
+  EXPECT_EQ(lv.facets(), 8u);
+  EXPECT_NEAR(lv.grooveArea(), v.grooveArea(), 1e-15);
+  int deepest = 0;
+  for (size_t k = 0; k < lv.facets(); ++k) {
+    double d0 = -lv.pts[k].y, d1 = -lv.pts[k + 1].y;
+    // Each facet lies in the layer it shows.
+    EXPECT_EQ(paint.layerAtDepth(std::min(d0, d1) + 1e-12), lv.layer[k]);
+    deepest = std::max(deepest, lv.layer[k]);
+  }
+  EXPECT_EQ(deepest, 3);  // through the coat: bare steel at the bottom
+  // A shallow scratch stays in the clear coat; the peaks show the top layer.
+  ProcessCrossSection cs = deriveCrossSectionForDepth(cone(120), 0.01);
+  Profile shallow = cs.profile.withLayers(paint);
+  for (int l : shallow.layer) EXPECT_EQ(l, 0);
+  Profile deep = cs.profile.scaled(4.0).withLayers(paint);  // 0.04 deep: reaches the primer
+  int dl = 0;
+  for (int l : deep.layer) dl = std::max(dl, l);
+  EXPECT_EQ(dl, 2);
+  EXPECT_NEAR(deep.depth(), 0.04, 1e-15);
+}
+
+// ---- paths ------------------------------------------------------------------------------------
+
+TEST(ScratchPath, BezierFlatteningErrorBound) {
+  Vec2d c[4] = {{0, 0}, {10, 25}, {30, -20}, {40, 5}};
+  for (double tol : {1e-1, 1e-2, 1e-3}) {
+    ScratchPath p = ScratchPath::bezier({c[0], c[1], c[2], c[3]}, tol);
+    double worst = 0;
+    for (int i = 0; i <= 20000; ++i) worst = std::max(worst, polyDist(p.points(), cubicAt(c, i / 20000.0)));
+    EXPECT_LE(worst, tol);
+    EXPECT_GT(worst, 0.05 * tol);  // not absurdly over-refined
+    // Vertices lie on the curve: the polyline's length is at most the curve's.
+    double len = 0;
+    Vec2d prev = c[0];
+    for (int i = 1; i <= 100000; ++i) {
+      Vec2d q = cubicAt(c, i / 100000.0);
+      len += std::hypot(q.x - prev.x, q.y - prev.y);
+      prev = q;
+    }
+    EXPECT_LE(p.length(), len + 1e-9);
+    EXPECT_GT(p.length(), len * (1 - 1e-3));
+  }
+  EXPECT_THROW(ScratchPath::bezier({{0, 0}, {1, 1}, {2, 2}}), std::invalid_argument);
+}
+
+TEST(ScratchPath, ArcLengthParameterisation) {
+  ScratchPath p = ScratchPath::polyline({{0, 0}, {3, 4}, {3, 10}});
+  EXPECT_DOUBLE_EQ(p.length(), 11.0);
+  Vec2d q = p.pointAt(2.5);
+  EXPECT_NEAR(q.x, 1.5, 1e-12);
+  EXPECT_NEAR(q.y, 2.0, 1e-12);
+  q = p.pointAt(8.0);
+  EXPECT_NEAR(q.x, 3.0, 1e-12);
+  EXPECT_NEAR(q.y, 7.0, 1e-12);
+  Vec2d t = p.tangentAt(6.0);
+  EXPECT_NEAR(t.y, 1.0, 1e-12);
+  Box2 b = p.bounds();
+  EXPECT_EQ(b.lo.x, 0.0f);
+  EXPECT_EQ(b.hi.y, 10.0f);
+  ScratchPath a = ScratchPath::arc({0, 0}, 10, 0, kPi, 1e-3);
+  EXPECT_NEAR(a.length(), 10 * kPi, 10 * kPi * 1e-4);
+  for (const Vec2d& v : a.points()) EXPECT_NEAR(std::hypot(v.x, v.y), 10.0, 1e-12);
+}
+
+TEST(ScratchPath, ClosestPointAgainstBruteForce) {
+  ScratchPath p = ScratchPath::bezier({{5, 5}, {20, 40}, {40, -20}, {60, 20}, {70, 40}, {40, 50}, {30, 30}}, 1e-3);
+  ASSERT_GT(p.points().size(), 20u);  // the segment grid is in use
+  // Dense samples of the path by arc length (double).
+  const int N = 200000;
+  std::vector<Vec2d> samp(N + 1);
+  for (int i = 0; i <= N; ++i) samp[size_t(i)] = p.pointAt(p.length() * i / N);
+  const double spacing = p.length() / N;
+  Rng rng(7, Stream::Test);
+  for (int k = 0; k < 300; ++k) {
+    Vec2d q{-5 + 85 * rng.uniformD(), -15 + 75 * rng.uniformD()};
+    double best = 1e300, best_s = 0;
+    for (int i = 0; i <= N; ++i) {
+      double d = std::hypot(samp[size_t(i)].x - q.x, samp[size_t(i)].y - q.y);
+      if (d < best) {
+        best = d;
+        best_s = p.length() * i / N;
+      }
+    }
+    PathPoint c = p.closest(Vec2f{float(q.x), float(q.y)});
+    ASSERT_TRUE(c.found);
+    EXPECT_LE(c.distance, best + 1e-4);
+    EXPECT_GE(c.distance, best - spacing - 1e-4);
+    // The reported point is the path at s, and its distance is the reported one.
+    Vec2d at = p.pointAt(c.s);
+    EXPECT_NEAR(at.x, c.point.x, 2e-4);
+    EXPECT_NEAR(at.y, c.point.y, 2e-4);
+    if (best > 0.5) {
+      // Away from the medial axis ties, the arc position agrees too.
+      bool unique = true;
+      for (int i = 0; i <= N && unique; i += 50)
+        if (std::fabs(p.length() * i / N - best_s) > 2.0 &&
+            std::hypot(samp[size_t(i)].x - q.x, samp[size_t(i)].y - q.y) < best + 0.05)
+          unique = false;
+      if (unique) {
+        EXPECT_NEAR(c.s, best_s, 1e-2);
+      }
+    }
+    // Side: B = (-T.y, T.x) is the left normal.
+    if (c.beyond == 0 && c.distance > 1e-3) {
+      double cr = c.tangent.x * (q.y - c.point.y) - c.tangent.y * (q.x - c.point.x);
+      EXPECT_EQ(c.side(), cr > 0 ? 1 : -1);
+      EXPECT_NEAR(std::fabs(c.offset), c.distance, 1e-5);
+    }
+    // The grid-accelerated bounded query agrees with the exhaustive one.
+    PathPoint g = p.closest(Vec2f{float(q.x), float(q.y)}, 3.0f);
+    EXPECT_EQ(g.found, c.distance <= 3.0f);
+    if (g.found) {
+      EXPECT_EQ(g.distance, c.distance);
+      EXPECT_EQ(g.s, c.s);
+    }
+  }
+}
+
+TEST(ScratchPath, SideAndEnds) {
+  ScratchPath p = ScratchPath::polyline({{0, 0}, {10, 0}, {10, 10}});  // right, then up (left turn)
+  PathPoint a = p.closest({5, 1});
+  EXPECT_EQ(a.side(), 1);
+  EXPECT_NEAR(a.offset, 1.0f, 1e-6);
+  EXPECT_NEAR(a.s, 5.0f, 1e-6);
+  PathPoint b = p.closest({5, -2});
+  EXPECT_NEAR(b.offset, -2.0f, 1e-6);
+  // Outer wedge of the corner: right of the path.
+  PathPoint c = p.closest({12, -2});
+  EXPECT_NEAR(c.s, 10.0f, 1e-6);
+  EXPECT_EQ(c.side(), -1);
+  EXPECT_NEAR(c.distance, std::sqrt(8.0f), 1e-5);
+  // Before the start, past the end.
+  PathPoint d = p.closest({-3, 0.5f});
+  EXPECT_NEAR(d.beyond, 3.0f, 1e-6);
+  EXPECT_NEAR(d.offset, 0.5f, 1e-6);
+  PathPoint e = p.closest({9, 12});
+  EXPECT_NEAR(e.beyond, 2.0f, 1e-6);
+  EXPECT_NEAR(e.offset, 1.0f, 1e-6);  // left of an upward path is -u
+  EXPECT_EQ(p.closest({5, 1}).beyond, 0.0f);
+  // Bounded queries: nothing within the radius, and far-away points.
+  ScratchPath arc = ScratchPath::arc({0, 0}, 50, 0, 2, 1e-3);
+  EXPECT_FALSE(arc.closest({0, 0}, 10).found);
+  EXPECT_FALSE(arc.closest({1e30f, -1e30f}, 10).found);
+  EXPECT_TRUE(arc.closest({0, 0}, 50.01f).found);
+  EXPECT_NEAR(arc.closest({0, 0}, 50.01f).distance, 50.0f, 1e-3);
+}
+
+// ---- variation along the path -----------------------------------------------------------------
+
+TEST(ScratchAlong, FadeMonotoneAndZeroAtEnds) {
+  EXPECT_EQ(scratchFade(0, 10, 2), 0.0);
+  EXPECT_EQ(scratchFade(10, 10, 2), 0.0);
+  EXPECT_EQ(scratchFade(5, 10, 2), 1.0);
+  EXPECT_NEAR(scratchFade(1, 10, 2), 0.5, 1e-15);
+  ScratchPath path = ScratchPath::polyline({{0, 0}, {30, 0}});
+  ScratchPerturbation pert;
+  pert.fade_length_mm = 4;
+  Scratch proc = Scratch::fromProcess(path, {cone(120), 1.0, 100.0, 1.0}, pert);
+  Scratch expl = Scratch::fromProfile(path, Profile::fromPolyline({{-0.1, 0}, {0, -0.02}, {0.1, 0}}), pert);
+  for (const Scratch* s : {&proc, &expl}) {
+    EXPECT_EQ(s->scaleAt(0), 0.0f);
+    EXPECT_EQ(s->scaleAt(30), 0.0f);
+    EXPECT_NEAR(s->scaleAt(15), 1.0f, 1e-6);
+    EXPECT_NEAR(s->maxScale(), 1.0f, 1e-6);
+    float prev = 0;
+    for (float x = 0; x <= 15; x += 0.01f) {
+      float k = s->scaleAt(x);
+      EXPECT_GE(k, prev - 1e-7f);
+      EXPECT_NEAR(s->scaleAt(30 - x), k, 1e-5);  // symmetric
+      prev = k;
+    }
+  }
+  // The process scratch vanishes before its end: F/H below 4.17e-4 where g(u) < 0.0417.
+  EXPECT_EQ(proc.scaleAt(0.3f), 0.0f);
+  EXPECT_GT(expl.scaleAt(0.3f), 0.0f);
+  // Depth and width follow the scale.
+  Profile mid = proc.profileAt(15), q = proc.profileAt(2);
+  EXPECT_NEAR(mid.depth(), scratchDepthMm(1, 100), 1e-7);
+  EXPECT_NEAR(q.depth() / mid.depth(), proc.scaleAt(2), 1e-6);
+  EXPECT_NEAR(q.depth(), scratchDepthMm(1.0 * 0.5, 100), 1e-7);  // g(0.5) = 0.5
+  EXPECT_NEAR(q.width() / mid.width(), q.depth() / mid.depth(), 1e-6);
+}
+
+TEST(ScratchAlong, KeyedForceAndNoise) {
+  ScratchPath path = ScratchPath::polyline({{0, 0}, {40, 0}});
+  ScratchPerturbation pert;
+  pert.force_keys = {{0.0, 0.5}, {0.5, 2.0}, {1.0, 1.0}};
+  Scratch s = Scratch::fromProcess(path, {cone(120), 1.0, 100.0, 1.0}, pert);
+  EXPECT_NEAR(s.profileAt(20).depth(), scratchDepthMm(2.0, 100), 1e-7);
+  EXPECT_NEAR(s.profileAt(0).depth(), scratchDepthMm(0.5, 100), 1e-7);
+  EXPECT_NEAR(s.profileAt(10).depth(), scratchDepthMm(1.25, 100), 1e-6);
+  double prev = 0;
+  for (double x = 0; x <= 20; x += 0.5) {  // monotone between keys
+    double d = s.profileAt(x).depth();
+    EXPECT_GE(d, prev);
+    prev = d;
+  }
+  for (double x = 20.5; x <= 40; x += 0.5) {
+    double d = s.profileAt(x).depth();
+    EXPECT_LE(d, prev);
+    prev = d;
+  }
+  // Noise: bounded by the amplitude, smooth, seeded.
+  ScratchPerturbation np;
+  np.noise_amplitude = 0.3;
+  np.noise_wavelength_mm = 3;
+  np.noise_seed = 11;
+  Profile pr = Profile::fromPolyline({{-0.1, 0}, {0, -0.02}, {0.1, 0}});
+  Scratch n1 = Scratch::fromProfile(path, pr, np), n2 = Scratch::fromProfile(path, pr, np);
+  np.noise_seed = 12;
+  Scratch n3 = Scratch::fromProfile(path, pr, np);
+  double diff = 0, lo = 2, hi = 0;
+  for (float x = 0; x <= 40; x += 0.05f) {
+    float k = n1.scaleAt(x);
+    EXPECT_EQ(k, n2.scaleAt(x));
+    lo = std::min(lo, double(k));
+    hi = std::max(hi, double(k));
+    diff = std::max(diff, double(std::fabs(k - n3.scaleAt(x))));
+  }
+  EXPECT_GE(lo, 0.7 - 1e-6);
+  EXPECT_LE(hi, 1.3 + 1e-6);
+  EXPECT_GT(hi - lo, 0.1);
+  EXPECT_GT(diff, 0.01);
+}
+
+// ---- the defect -------------------------------------------------------------------------------
+
+TEST(ScratchDefect, MaskAreaOfStraightScratch) {
+  const double L = 30, W = 0.4;
+  Profile pr = Profile::fromPolyline({{-0.2, 0}, {-0.1, 0.01}, {0, -0.03}, {0.1, 0.01}, {0.2, 0}});
+  ScratchPath path = ScratchPath::polyline({{10, 10}, {10 + L, 10}});
+  Scratch blunt = Scratch::fromProfile(path, pr);
+  EXPECT_EQ(blunt.cls(), DefectClass::Scratch);
+  Box2 sup = blunt.support();
+  EXPECT_NEAR(sup.lo.x, 9.8f, 1e-5);
+  EXPECT_NEAR(sup.hi.y, 10.2f, 1e-5);
+  const double step = 0.005;
+  Box2 area = box(9, 9.5f, 41, 10.5f);
+  // Blunt ends: L x W, up to the sampling of the boundary.
+  EXPECT_NEAR(maskArea(blunt, area, step), L * W, 2 * (L + W) * step);
+  // Faded ends: W * integral of the smoothstep = W (L - fade).
+  ScratchPerturbation pert;
+  pert.fade_length_mm = 3;
+  Scratch faded = Scratch::fromProfile(path, pr, pert);
+  EXPECT_NEAR(maskArea(faded, area, step), W * (L - 3), 2 * (L + W) * step);
+  // Mask points are inside the support; the height is the profile's.
+  EXPECT_TRUE(blunt.inMask({25, 10.19f}));
+  EXPECT_FALSE(blunt.inMask({25, 10.21f}));
+  EXPECT_FALSE(blunt.inMask({9.9f, 10}));
+  EXPECT_NEAR(blunt.height({25, 10}), -0.03f, 1e-6);
+  EXPECT_NEAR(blunt.height({25, 10.1f}), 0.01f, 1e-5);   // left peak (b = +0.1)
+  EXPECT_NEAR(blunt.height({25, 9.95f}), -0.01f, 1e-5);  // b = -0.05: halfway up (-0.1, 0.01)
+  EXPECT_EQ(blunt.height({25, 10.3f}), 0.0f);
+  nlohmann::json j = faded.attributes();
+  EXPECT_EQ(j["model"], "profile");
+  EXPECT_NEAR(j["length_mm"].get<double>(), L, 1e-12);
+  EXPECT_NEAR(j["width_mm"].get<double>(), W, 1e-6);
+  EXPECT_NEAR(j["depth_mm"].get<double>(), 0.03, 1e-6);
+}
+
+TEST(ScratchDefect, MaskAreaOfArcAndProcessAttributes) {
+  ScratchPath arc = arcScratch({50, 50}, 20, 0.3, 0.05);  // radius 20, sweep 1 rad
+  LayerStack paint{{{"clear", 0.02}, {"base", 0.015}, {"primer", 0.01}, {"steel", 0}}};
+  Scratch s = Scratch::fromProcess(arc, {cone(120), 4.0, 60.0, 1.0}, {}, paint);
+  double W = s.referenceProfile().width();
+  Box2 sup = s.support();
+  double A = maskArea(s, sup, 0.004);
+  // Symmetric profile about a circular path: the band's area is exactly L x W.
+  EXPECT_NEAR(A, 20 * W, 2 * 20 * 0.004 + 0.05 * 20 * W);
+  nlohmann::json j = s.attributes();
+  EXPECT_EQ(j["model"], "process");
+  EXPECT_EQ(j["tool"]["shape"], "cone");
+  EXPECT_NEAR(j["depth_mm"].get<double>(), scratchDepthMm(4, 60), 1e-6);
+  EXPECT_EQ(j["deepest_layer"], "base");  // 34.9 µm: through the 20 µm clear coat, into the base
+  EXPECT_NEAR(j["alpha_deg"][0].get<double>(), 30.0, 1e-5);
+}
+
+// ---- placement --------------------------------------------------------------------------------
+
+TEST(ScratchPlacement, KeyScratchDeterministicAndInside) {
+  Box2 region = box(0, 0, 400, 250);
+  for (uint64_t seed : {1ull, 2ull, 3ull}) {
+    Rng r1(seed, Stream::Defect), r2(seed, Stream::Defect);
+    ScratchPath a = randomKeyScratch(r1, region), b = randomKeyScratch(r2, region);
+    ASSERT_EQ(a.points().size(), b.points().size());
+    for (size_t i = 0; i < a.points().size(); ++i) {
+      EXPECT_EQ(a.points()[i].x, b.points()[i].x);
+      EXPECT_EQ(a.points()[i].y, b.points()[i].y);
+    }
+    Box2 bb = a.bounds();
+    EXPECT_GE(bb.lo.x, region.lo.x);
+    EXPECT_LE(bb.hi.x, region.hi.x);
+    EXPECT_GE(bb.lo.y, region.lo.y);
+    EXPECT_LE(bb.hi.y, region.hi.y);
+    double chord = std::hypot(a.points().back().x - a.points().front().x,
+                              a.points().back().y - a.points().front().y);
+    EXPECT_GT(a.length(), 0.2 * std::hypot(400.0, 250.0));  // long
+    EXPECT_LT(a.length(), 1.1 * chord);                        // gently curved
+  }
+  Rng r1(1, Stream::Defect), r3(2, Stream::Defect);
+  EXPECT_NE(randomKeyScratch(r1, region).points()[0].x, randomKeyScratch(r3, region).points()[0].x);
+}
+
+TEST(ScratchPlacement, WashSwirlsConcentricAndParallel) {
+  Box2 region = box(0, 0, 300, 200);
+  SwirlOptions o;
+  o.count = 10;
+  Rng r1(42, Stream::Defect), r2(42, Stream::Defect);
+  SwirlSet a = randomWashSwirls(r1, region, o), b = randomWashSwirls(r2, region, o);
+  ASSERT_EQ(a.arcs.size(), b.arcs.size());
+  ASSERT_GE(a.arcs.size(), 5u);
+  EXPECT_EQ(a.centre.x, b.centre.x);
+  for (size_t i = 0; i < a.arcs.size(); ++i) {
+    ASSERT_EQ(a.arcs[i].points().size(), b.arcs[i].points().size());
+    EXPECT_EQ(a.arcs[i].points().back().y, b.arcs[i].points().back().y);
+    // Every vertex on the circle about the common centre; inside the region.
+    for (const Vec2d& v : a.arcs[i].points()) {
+      EXPECT_NEAR(std::hypot(v.x - a.centre.x, v.y - a.centre.y), a.radii[i], 1e-9);
+      EXPECT_TRUE(v.x >= 0 && v.x <= 300 && v.y >= 0 && v.y <= 200);
+    }
+    EXPECT_GE(a.arcs[i].length(), o.min_length_mm);
+    // Parallel: radii increase, neighbours one spacing apart (within the jitter).
+    if (i > 0) {
+      double gap = a.radii[i] - a.radii[i - 1];
+      EXPECT_GT(gap, 0.0);
+      EXPECT_LT(gap, 2.0 * o.spacing_mm.hi * (1 + 2 * o.spacing_jitter));
+    }
+  }
+  // A fixed centre is honoured; the distance to the centre is constant along an arc: the closest
+  // point query of each arc from the centre returns its radius.
+  o.fixed_centre = true;
+  o.centre = {-20, -30};
+  Rng r3(5, Stream::Defect);
+  SwirlSet c = randomWashSwirls(r3, region, o);
+  EXPECT_EQ(c.centre.x, -20.0);
+  for (size_t i = 0; i < c.arcs.size(); ++i)
+    EXPECT_NEAR(c.arcs[i].closest({-20, -30}).distance, c.radii[i], 1e-3 * c.radii[i]);
+}
+
+TEST(ScratchPlacement, GenericScratch) {
+  Box2 region = box(10, 10, 110, 60);
+  GenericScratchOptions o;
+  o.length_mm = {10, 30};
+  o.curvature = {0.01, 0.05};
+  Rng r1(9, Stream::Defect), r2(9, Stream::Defect);
+  for (int k = 0; k < 50; ++k) {
+    ScratchPath a = randomScratch(r1, region, o), b = randomScratch(r2, region, o);
+    ASSERT_EQ(a.points().size(), b.points().size());
+    EXPECT_EQ(a.points()[1].x, b.points()[1].x);
+    EXPECT_GE(a.length(), 10 * (1 - 1e-4));
+    EXPECT_LE(a.length(), 30.0 + 1e-9);
+    Box2 bb = a.bounds();
+    EXPECT_TRUE(bb.lo.x >= 10 && bb.hi.x <= 110 && bb.lo.y >= 10 && bb.hi.y <= 60);
+  }
+  // arcScratch: mid-point, direction and curvature as asked.
+  ScratchPath s = arcScratch({0, 0}, 10, 0.5, 0.1, 1e-6);
+  Vec2d m = s.pointAt(s.length() / 2);
+  EXPECT_NEAR(m.x, 0, 1e-5);
+  EXPECT_NEAR(m.y, 0, 1e-5);
+  Vec2d t = s.tangentAt(s.length() / 2);
+  EXPECT_NEAR(std::atan2(t.y, t.x), 0.5, 1e-3);
+  Vec2d c{-std::sin(0.5) * 10, std::cos(0.5) * 10};  // centre on the left at radius 10
+  for (const Vec2d& v : s.points()) EXPECT_NEAR(std::hypot(v.x - c.x, v.y - c.y), 10, 1e-9);
+  ScratchPath line = arcScratch({1, 2}, 4, 0, 0);
+  EXPECT_EQ(line.points().size(), 2u);
+  EXPECT_DOUBLE_EQ(line.length(), 4.0);
+}

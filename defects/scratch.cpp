@@ -733,6 +733,28 @@ float Scratch::height(Vec2f p) const {
   return k * float(ref_.heightAt(double(q.offset) / k));
 }
 
+void Scratch::shade(const DefectQuery& qy, DefectShading& out) const {
+  if (!bump_shading_ || !(ref_.width() > 0) || !(max_scale_ > 0)) return;
+  PathPoint q = path_.closest(qy.uv, float(ref_.halfExtent()) * max_scale_);
+  if (!q.found || q.beyond > 0) return;
+  float k = scaleAt(q.s);
+  if (!(k > 0)) return;
+  // A uniformly scaled profile keeps its slopes: dh/db at b is the reference slope at b / k.
+  double b = double(q.offset) / k;
+  const auto& p = ref_.pts;
+  double slope = 0;
+  for (size_t i = 0; i + 1 < p.size(); ++i)
+    if (b >= p[i].x && b < p[i + 1].x) {
+      double db = p[i + 1].x - p[i].x;
+      slope = db > 0 ? (p[i + 1].y - p[i].y) / db : 0.0;
+      break;
+    }
+  // Vertical facets have no finite slope; cap the tilt at 80 degrees.
+  slope = std::max(-5.67, std::min(5.67, slope));
+  Vec2f B(-q.tangent.y, q.tangent.x);  // W x T in the UV plane
+  out.height_grad += B * float(slope);
+}
+
 nlohmann::json Scratch::attributes() const {
   const double deg = 180.0 / kPi;
   nlohmann::json j;

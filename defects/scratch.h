@@ -249,9 +249,14 @@ class Scratch final : public Defect {
   // Path box dilated by the largest half-extent of the cross-section along the path.
   Box2 support() const override { return support_; }
   Box2 maskBox() const override { return support_; }
-  // Placeholder: the groove renderer (issue 5, Bosch §4.2) integrates the footprint over the
-  // cross-section facets; a scratch adds nothing through the bump/cover interface.
-  void shade(const DefectQuery&, DefectShading&) const override {}
+  // With the groove renderer (render/groove_shading.cpp, Bosch §4.2) the footprint is integrated
+  // over the cross-section's facets and a scratch adds nothing through the bump interface. In
+  // normal-map mode (setBumpShading(true), the comparison baseline of scripts/bench-grooves) it
+  // adds the slope of the facet under the point as a height gradient: point-sampled, no masking,
+  // no shadowing, no inter-reflection — what texture-based tools do.
+  void shade(const DefectQuery& q, DefectShading& s) const override;
+  void setBumpShading(bool on) { bump_shading_ = on; }
+  bool bumpShading() const { return bump_shading_; }
   // The cross-section's height at p (mm): for the explicit-geometry reference mode.
   float height(Vec2f p) const override;
   // p lies within the cross-section's footprint [scale*bMin, scale*bMax] at its arc position,
@@ -283,6 +288,7 @@ class Scratch final : public Defect {
   std::vector<float> scale_;  // samples at s = i * ds
   float ds_ = 1, max_scale_ = 1;
   Box2 support_;
+  bool bump_shading_ = false;
 };
 
 // ------------------------------------------------------------------------------------------------

@@ -263,7 +263,13 @@ Field buildSchema() {
       flag("normals", false, "World shading-normal AOV (after bump) in the EXR."),
       flag("masks", true, "Semantic and instance masks and COCO annotations."),
       integer("mask_subsamples", "per axis", 4, 1, 16,
-              "The pixel footprint is sampled on an n x n grid to measure defect coverage.")};
+              "The pixel footprint is sampled on an n x n grid to measure defect coverage."),
+      enumeration("scratches", {"groove", "geometry", "normal_map"}, "groove",
+                  "How scratches are rendered: groove = the footprint integrated over their cross-"
+                  "sections (Bosch 2007; exact masking, shadowing and inter-reflection, few samples "
+                  "needed); geometry = the explicit-geometry reference (the part re-meshed with the "
+                  "cross-sections cut in; flat parts only; needs many samples); normal_map = the "
+                  "slopes as a bump map without occlusion (the baseline of texture-based tools).")};
   root.fields.push_back(ren);
 
   // defects
@@ -343,6 +349,43 @@ Field buildSchema() {
   def.variant_docs["patina"] = "Patina on copper, brass, bronze or bare steel (Mihaylov 2013 §5): a five-"
                                "colour ramp from dark-brown tarnish to blue-green, coverage growing "
                                "monotonically with age. See docs/weathering.md.";
+  def.variants["scratch"] = {
+      integer("count", "", 1, 0, 1000,
+              "Number of scratches in the group (pattern swirl: arcs in the swirl set).", true),
+      enumeration("pattern", {"random", "key", "swirl"}, "random",
+                  "random: independent scratches of `length_mm`, `orientation_deg`, `curvature_per_mm`; "
+                  "key: long gently curved scratches across the region (cubic curves); swirl: wash "
+                  "swirls, concentric arcs about one centre."),
+      num("length_mm", "mm", 20, 0.5, 5000, "Length of a random scratch."),
+      optional(num("orientation_deg", "deg", nullptr, -360, 360,
+                   "Direction of a random scratch in the UV chart, from +u toward +v; absent = uniform.")),
+      num("curvature_per_mm", "1/mm", 0, 0, 1, "Curvature of a random scratch (its sign is random)."),
+      num("force_kg", "kg", 1, 0, 1000, "Normal force on the tool, F_N (Bosch 2007 §3.2)."),
+      num("hardness_hv", "kg/mm^2", 20, 0.1, 5000,
+          "Vickers hardness of the scratched surface, H_V (clear coat ~10-30, steel ~150-250)."),
+      enumeration("tool", {"cone", "pyramid"}, "cone", "Tool shape: a cone with a rounded tip, or a "
+                  "Vickers-like pyramid."),
+      num("tool_apex_deg", "deg", 100, 10, 170, "Full apex angle of the tool (pyramid: face to face)."),
+      num("tool_tip_radius_mm", "mm", 0.002, 0, 5, "Tip radius of a cone tool."),
+      num("tool_tilt_deg", "deg", 0, 0, 80, "Tilt of the tool axis from the surface normal (theta_t)."),
+      num("tool_tilt_azimuth_deg", "deg", 0, -360, 360,
+          "Direction of the tilt from the scratch direction toward its left (phi_t)."),
+      num("pileup", "fraction", 0.6, 0, 1, "Share of the groove's volume piled up beside it (1 = "
+          "Bosch's conservation of volume; less for cutting tools and paint)."),
+      optional(vec("profile_mm", -4, "mm", nullptr, -50, 50,
+                   "Explicit cross-section [b0, w0, b1, w1, ...] across the path (b left of the path, "
+                   "w up), from w = 0 to w = 0 with b non-decreasing; replaces the process model.",
+                   false)),
+      num("fade_mm", "mm", 2, 0, 1000, "The force ramps up from 0 over this length at each end."),
+      num("perturbation", "fraction", 0.15, 0, 0.95, "Random variation of the depth along the path."),
+      vec("coating_mm", 3, "mm", {0.04, 0.015, 0.03}, 0, 5,
+          "[clear coat, base coat, primer] thicknesses of car paint over the metal; a facet deeper "
+          "than the clear coat shows the base coat, then primer, then bare steel. Other materials "
+          "are one solid layer.", false),
+      region, center};
+  def.variant_docs["scratch"] = "Scratches rendered as grooves (Bosch 2007): a path in the UV chart and "
+                                "a cross-section derived from the tool, force and hardness; one instance "
+                                "of class scratch per path. See docs/grooves.md.";
   root.fields.push_back(def);
   return root;
 }
@@ -608,12 +651,16 @@ class Parser {
         v.dist = enumOrChoice(n, f, path);
         break;
       case FieldType::Vector: {
-        if (!n.IsSequence() || int(n.size()) != f.vector_size)
-          fail(n, where(path) + ": expected a list of " + std::to_string(f.vector_size) + " numbers" +
+        // vector_size < 0: a list of at least -vector_size numbers.
+        bool ok = n.IsSequence() && (f.vector_size > 0 ? int(n.size()) == f.vector_size
+                                                       : int(n.size()) >= -f.vector_size);
+        if (!ok)
+          fail(n, where(path) + ": expected a list of " + (f.vector_size < 0 ? "at least " : "") +
+                      std::to_string(std::abs(f.vector_size)) + " numbers" +
                       (f.unit.empty() ? "" : " (" + f.unit + ")"));
         Field ef = f;
         ef.type = f.element_type;
-        for (int i = 0; i < f.vector_size; ++i) {
+        for (int i = 0; i < int(n.size()); ++i) {
           Value e;
           e.field = &f;
           e.path = path + "[" + std::to_string(i) + "]";
@@ -952,7 +999,7 @@ std::string typeText(const Field& f) {
     case FieldType::Enum: return "name";
     case FieldType::Path: return "file path";
     case FieldType::Vector:
-      return "list of " + std::to_string(f.vector_size) +
+      return "list of " + std::string(f.vector_size < 0 ? "at least " : "") + std::to_string(std::abs(f.vector_size)) +
              (f.element_type == FieldType::Integer ? " integers" : " numbers");
     case FieldType::Object: return "mapping";
     case FieldType::List: return "list";

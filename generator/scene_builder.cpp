@@ -5,8 +5,10 @@
 
 #include "core/error.h"
 #include "defects/dent.h"
+#include "defects/scratch.h"
 #include "defects/weathering.h"
 #include "render/displacement.h"
+#include "render/scratch_geometry.h"
 #include "render/mesh_io.h"
 #include "render/parts.h"
 
@@ -387,6 +389,101 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
           dj.push_back({{"instance_id", id}, {"class", "dent"}, {"group", g}, {"attributes", info.attributes}});
           s.defects->push_back(std::move(dent));
         }
+      } else if (type == "scratch") {
+        // Scratches: paths in the UV chart (mm), cross-sections from the process (Bosch 2007 §3.2)
+        // or an explicit profile; each path is an instance of class scratch.
+        std::string pattern = d["pattern"].str();
+        Box2 rbox;
+        rbox.lo = {float(uvb.lo.x + u0 * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + v0 * (uvb.hi.y - uvb.lo.y))};
+        rbox.hi = {float(uvb.lo.x + u1 * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + v1 * (uvb.hi.y - uvb.lo.y))};
+        std::vector<ScratchPath> paths;
+        try {
+          if (pattern == "swirl") {
+            if (k > 0) continue;  // the whole swirl set is made at k == 0
+            SwirlOptions so;
+            so.count = count;
+            so.fixed_centre = true;
+            so.centre = Vec2d(center.x, center.y);
+            so.radius0_mm = {0.15 * (rbox.hi.x - rbox.lo.x), 0.4 * (rbox.hi.x - rbox.lo.x)};
+            SwirlSet set = randomWashSwirls(rng, rbox, so);
+            paths = std::move(set.arcs);
+            local["swirl_centre_mm"] = {set.centre.x, set.centre.y};
+          } else if (pattern == "key") {
+            KeyScratchOptions ko;
+            paths.push_back(randomKeyScratch(rng, rbox, ko));
+          } else {
+            double len = sampleNumber(d["length_mm"], rng, local);
+            double ori = d.has("orientation_deg") ? degToRad(sampleNumber(d["orientation_deg"], rng, local))
+                                                  : kPi * rng.uniformD();
+            double curv = sampleNumber(d["curvature_per_mm"], rng, local) * (rng.uniformD() < 0.5 ? -1 : 1);
+            paths.push_back(arcScratch(Vec2d(center.x, center.y), len, ori, curv));
+          }
+        } catch (const std::invalid_argument& e) {
+          throw InputError(c.file, d.line, d.column, "'" + d.path + "': cannot place the scratch: " + e.what());
+        }
+        LayerStack stack;
+        if (s.scene.material.kind == MaterialKind::CarPaint) {
+          stack.layers = {{"clear_coat", d["coating_mm"].items[0].num()},
+                          {"base_coat", d["coating_mm"].items[1].num()},
+                          {"primer", d["coating_mm"].items[2].num()},
+                          {"steel", 0.0}};
+        } else {
+          stack.layers = {{"surface", 0.0}};
+        }
+        for (size_t j = 0; j < paths.size(); ++j) {
+          json one = json::object();
+          ScratchProcess proc;
+          proc.force_kg = sampleNumber(d["force_kg"], rng, one);
+          proc.hardness_hv = sampleNumber(d["hardness_hv"], rng, one);
+          proc.pileup = sampleNumber(d["pileup"], rng, one);
+          proc.tool.shape = sampleValue(d["tool"], rng, one).get<std::string>() == "pyramid" ? ToolSpec::Shape::Pyramid
+                                                                                          : ToolSpec::Shape::Cone;
+          proc.tool.apex_angle_rad = degToRad(sampleNumber(d["tool_apex_deg"], rng, one));
+          proc.tool.tip_radius_mm = sampleNumber(d["tool_tip_radius_mm"], rng, one);
+          proc.tool.theta_rad = degToRad(sampleNumber(d["tool_tilt_deg"], rng, one));
+          proc.tool.phi_rad = degToRad(sampleNumber(d["tool_tilt_azimuth_deg"], rng, one));
+          ScratchPerturbation pert;
+          pert.fade_length_mm = sampleNumber(d["fade_mm"], rng, one);
+          pert.noise_amplitude = sampleNumber(d["perturbation"], rng, one);
+          pert.noise_wavelength_mm = 3.0;
+          pert.noise_seed = hashKey(instance_seed, j);
+          std::unique_ptr<Scratch> sc;
+          try {
+            if (d.has("profile_mm")) {
+              const Value& pv = d["profile_mm"];
+              if (pv.items.size() % 2 != 0)
+                throw InputError(c.file, pv.line, pv.column,
+                                 "'" + pv.path + "': expected pairs [b, w]: an even count of numbers");
+              std::vector<Vec2d> pts;
+              for (size_t i = 0; i < pv.items.size(); i += 2) pts.push_back({pv.items[i].num(), pv.items[i + 1].num()});
+              Profile prof;
+              try {
+                prof = Profile::fromPolyline(pts);
+              } catch (const std::invalid_argument& e) {
+                throw InputError(c.file, pv.line, pv.column, "'" + pv.path + "': " + e.what());
+              }
+              sc = std::make_unique<Scratch>(Scratch::fromProfile(paths[j], prof, pert, stack));
+            } else {
+              sc = std::make_unique<Scratch>(Scratch::fromProcess(paths[j], proc, pert, stack));
+            }
+          } catch (const std::invalid_argument& e) {
+            throw InputError(c.file, d.line, d.column, "'" + d.path + "': invalid scratch: " + e.what());
+          }
+          sc->setBumpShading(root["render"]["scratches"].str() == "normal_map");
+          std::string suffix = paths.size() > 1 ? "#" + std::to_string(j) : "";
+          for (auto& kv : one.items()) local[kv.key() + suffix] = kv.value();
+          uint16_t id = uint16_t(s.defects->size() + 1);
+          sc->setInstanceId(id);
+          InstanceInfo info;
+          info.id = id;
+          info.cls = sc->cls();
+          info.attributes = sc->attributes();
+          info.attributes["group"] = g;
+          info.attributes["pattern"] = pattern;
+          s.instances.push_back(info);
+          dj.push_back({{"instance_id", id}, {"class", "scratch"}, {"group", g}, {"attributes", info.attributes}});
+          s.defects->push_back(std::move(sc));
+        }
       } else if (type == "dent") {
         DentParams dp;
         dp.center_uv = center;
@@ -486,6 +583,30 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
                             {"triangles_split", st.triangles_split},
                             {"vertices_moved", st.vertices_moved},
                             {"triangles", s.scene.part->mesh().triangleCount()}};
+  }
+  // Scratches: the renderer's mode, and for the explicit-geometry reference a re-meshed part with
+  // the cross-sections cut in (shared by nothing else: per sample, like displaced dents).
+  std::string scratch_mode = root["render"]["scratches"].str();
+  std::vector<const Scratch*> scratches;
+  for (auto& d : *s.defects)
+    if (d->cls() == DefectClass::Scratch) scratches.push_back(static_cast<const Scratch*>(d.get()));
+  s.scene.groove_shading = scratch_mode == "groove" && !scratches.empty();
+  if (!scratches.empty()) {
+    meta["scratches"] = {{"rendered_as", scratch_mode}};
+    s.scene.layer_materials = layerMaterials(s.scene.material, scratches.front()->layers());
+  }
+  if (scratch_mode == "geometry" && !scratches.empty()) {
+    if (!displaced.empty())
+      throw InputError(c.file, groups.line, groups.column,
+                       "'defects': render.scratches: geometry cannot be combined with displaced dents");
+    try {
+      ScratchGeometryStats st;
+      s.scene.part = std::make_shared<PartGeometry>(scratchedPlanarMesh(ds.part->mesh(), scratches, {}, &st));
+      meta["scratches"]["triangles"] = st.triangles;
+      meta["scratches"]["cell_mm"] = st.cell_mm;
+    } catch (const std::runtime_error& e) {
+      throw InputError(c.file, r["scratches"].line, r["scratches"].column, "'render.scratches': geometry: " + std::string(e.what()));
+    }
   }
   auto renderedAs = [&](uint16_t id) { return (*s.defects)[id - 1]->wantsDisplacement() ? "geometry" : "bump"; };
   for (auto& inst : s.instances)

@@ -37,14 +37,23 @@ std::vector<int> classLookup(const std::vector<InstanceInfo>& instances) {
   return lut;
 }
 
+// Per instance id: the coverage its pixels need to be labelled.
+std::vector<float> thresholds(const std::vector<InstanceInfo>& inst) {
+  std::vector<float> t(65536, kMaskCoverageThreshold);
+  for (const InstanceInfo& in : inst) t[in.id] = maskCoverageThreshold(in.cls);
+  return t;
+}
+
 }  // namespace
 
 Image<uint16_t> instanceMask(const CoverageFrame& f) {
   checkFrame(f, "instanceMask");
+  const std::vector<float> thr = thresholds(f.instances);
   Image<uint16_t> out(f.dominant.width, f.dominant.height, 1, 0);
   for (size_t i = 0; i < out.data.size(); ++i) {
+    uint16_t id = f.dominant.data[i];
     // NaN coverage fails the comparison and so stays background.
-    if (f.coverage.data[i] >= kMaskCoverageThreshold) out.data[i] = f.dominant.data[i];
+    if (id != 0 && f.coverage.data[i] >= (id < thr.size() ? thr[id] : kMaskCoverageThreshold)) out.data[i] = id;
   }
   return out;
 }
@@ -52,10 +61,11 @@ Image<uint16_t> instanceMask(const CoverageFrame& f) {
 Image<uint8_t> semanticMask(const CoverageFrame& f) {
   checkFrame(f, "semanticMask");
   const std::vector<int> lut = classLookup(f.instances);
+  const std::vector<float> thr = thresholds(f.instances);
   Image<uint8_t> out(f.dominant.width, f.dominant.height, 1, 0);
   for (size_t i = 0; i < out.data.size(); ++i) {
     uint16_t id = f.dominant.data[i];
-    if (id == 0 || !(f.coverage.data[i] >= kMaskCoverageThreshold)) continue;
+    if (id == 0 || !(f.coverage.data[i] >= (id < thr.size() ? thr[id] : kMaskCoverageThreshold))) continue;
     if (lut[id] < 0)
       throw std::logic_error("semanticMask: pixel (" + std::to_string(i % out.width) + ", " +
                              std::to_string(i / out.width) + ") has instance id " +

@@ -25,7 +25,15 @@ struct CoverageFrame {
   std::vector<InstanceInfo> instances;  // every instance placed in the sample (visible or not)
 };
 
+// A pixel is labelled with its dominant instance when that instance covers at least this fraction
+// of the pixel's footprint on the visible surface. Scratches are thin structures, usually narrower
+// than a pixel: they are labelled where their visible groove facets cover at least
+// kScratchMaskCoverage (docs/output.md).
 constexpr float kMaskCoverageThreshold = 0.5f;
+constexpr float kScratchMaskCoverage = 0.1f;
+inline float maskCoverageThreshold(DefectClass c) {
+  return c == DefectClass::Scratch ? kScratchMaskCoverage : kMaskCoverageThreshold;
+}
 
 Image<uint16_t> instanceMask(const CoverageFrame& f);                // 16-bit ids, 0 = background
 Image<uint8_t> semanticMask(const CoverageFrame& f);                 // class id per pixel

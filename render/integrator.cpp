@@ -6,6 +6,7 @@
 
 #include "core/parallel.h"
 #include "core/rng.h"
+#include "render/groove.h"
 
 namespace dg {
 
@@ -106,6 +107,16 @@ class Tracer {
     if (has_defects_)
       for (auto& d : *s.defects) needs_cavity_ |= d->needsCavity();
     has_paint_ = s.paint != nullptr && s.material.kind == MaterialKind::CarPaint;
+    if (has_defects_)
+      for (auto& d : *s.defects)
+        if (d->cls() == DefectClass::Scratch) {
+          const auto* sc = static_cast<const Scratch*>(d.get());
+          has_scratches_ = true;
+          max_height_ = std::max(max_height_, float(sc->referenceProfile().peakHeight()) * sc->maxScale());
+          max_depth_ = std::max(max_depth_, float(sc->referenceProfile().depth()) * sc->maxScale());
+          max_half_ = std::max(max_half_, float(sc->referenceProfile().halfExtent()) * sc->maxScale());
+        }
+    grooves_ = s.groove_shading && has_scratches_;
   }
 
   SurfacePoint surface(const Hit& h, const DiffRay& r, bool need_footprint) const {
@@ -222,12 +233,18 @@ class Tracer {
   }
 
   Rgb trace(DiffRay ray, Rng& rng, uint64_t& nrays) const {
-    Rgb L(0.0f), beta(1.0f);
-    float prev_pdf = 0;
-    bool prev_specular = true;  // camera rays count as "specular": no MIS on directly seen lights
-    Vec3f prev_p;
+    // Camera rays count as "specular": no MIS on directly seen lights.
+    return continuePath(ray, Rgb(1.0f), 0.0f, true, Vec3f(0.0f), 0, rng, nrays, 1);
+  }
+
+  // The path from `ray` on, with throughput beta and the previous vertex's BSDF pdf (for MIS on
+  // emitters the ray hits). `depth0` is the number of surface bounces before this ray.
+  // `prev_nl` is the number of light samples the previous vertex took per light (MIS counts).
+  Rgb continuePath(DiffRay ray, Rgb beta, float prev_pdf, bool prev_specular, Vec3f prev_p, int depth0, Rng& rng,
+                   uint64_t& nrays, int prev_nl) const {
+    Rgb L(0.0f);
     RTCScene scene = s_.part->scene();
-    for (int depth = 0;; ++depth) {
+    for (int depth = depth0;; ++depth) {
       Hit h = intersect(scene, ray.o, ray.d, 0.0f, kInf);
       ++nrays;
       // Emitters are not in the BVH; test them analytically against the part's hit distance.
@@ -245,13 +262,13 @@ class Tracer {
       if (light_hit >= 0) {
         const AreaLight& al = s_.lights.area[light_hit];
         float w = 1.0f;
-        if (!prev_specular) w = powerHeuristic(prev_pdf, al.pdfSolidAngle(prev_p, ray.o + ray.d * tl));
+        if (!prev_specular) w = powerHeuristic(prev_pdf, prev_nl * al.pdfSolidAngle(prev_p, ray.o + ray.d * tl));
         L += beta * al.radiance * w;
         break;
       }
       if (!h.hit) {
         if (s_.lights.env) {
-          float w = prev_specular ? 1.0f : powerHeuristic(prev_pdf, s_.lights.env->pdf(ray.d));
+          float w = prev_specular ? 1.0f : powerHeuristic(prev_pdf, prev_nl * s_.lights.env->pdf(ray.d));
           L += beta * s_.lights.env->eval(ray.d) * w;
         }
         break;
@@ -266,6 +283,14 @@ class Tracer {
         peel = ps.coat_height_grad;
         applyPaint(m, ps);
       }
+      // Camera hits on scratches: the groove renderer integrates the whole footprint.
+      if (depth == 0 && grooves_ && sp.uv_ok) {
+        GrooveSet gs;
+        if (gatherGrooves(sp, h, wo_w, gs)) {
+          L += beta * shadeGrooves(gs, sp, m, wo_w, rng, nrays);
+          break;
+        }
+      }
       DefectShading ds = applyDefects(sp, wo_w, h, peel);
       Frame fr = Frame::fromNormalTangent(sp.ns, sp.dpdu);
       Vec3f wo = fr.toLocal(wo_w);
@@ -274,9 +299,14 @@ class Tracer {
       float eps = rayEpsilon(sp.p);
       Vec3f origin = sp.p + sp.ng * eps;
 
-      // Next-event estimation: one sample on every light, MIS against the BSDF's sampling.
-      for (const AreaLight& al : s_.lights.area) {
-        Vec2f u{rng.uniform(), rng.uniform()};
+      // Next-event estimation: nl samples on every light (1, or with groove shading on, the
+      // groove's count at camera hits so that flat and grooved pixels converge alike), MIS
+      // against the BSDF's sampling.
+      const int nl = (depth == 0 && grooves_) ? st_.groove_light_samples : 1;
+      const int nq = std::max(1, int(std::lround(std::sqrt(float(nl)))));
+      for (const AreaLight& al : s_.lights.area)
+        for (int k = 0; k < nl; ++k) {
+        Vec2f u{((k % nq) + rng.uniform()) / nq, ((k / nq) % nq + rng.uniform()) / nq};
         Vec3f q = al.samplePoint(u);
         Vec3f wl = q - origin;
         float dist = length(wl);
@@ -290,11 +320,12 @@ class Tracer {
         if (maxComponent(f) <= 0) continue;
         ++nrays;
         if (occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f))) continue;
-        float w = powerHeuristic(pl, pdfBsdf(m, wo, wi));
-        L += beta * f * al.radiance * (wi.z * w / pl);
+        float w = powerHeuristic(nl * pl, pdfBsdf(m, wo, wi));
+        L += beta * f * al.radiance * (wi.z * w / (nl * pl));
       }
-      if (s_.lights.env) {
-        Vec2f u{rng.uniform(), rng.uniform()};
+      if (s_.lights.env)
+        for (int k = 0; k < nl; ++k) {
+        Vec2f u{((k % nq) + rng.uniform()) / nq, ((k / nq) % nq + rng.uniform()) / nq};
         Rgb Le;
         float pe;
         Vec3f wl = s_.lights.env->sample(u, Le, pe);
@@ -302,8 +333,8 @@ class Tracer {
         if (pe > 0 && wi.z > 0 && dot(wl, sp.ng) > 0 && maxComponent(Le) > 0) {
           Rgb f = evalBsdf(m, wo, wi);
           if (maxComponent(f) > 0 && (++nrays, !occluded(scene, origin, wl, 0.0f, kInf))) {
-            float w = powerHeuristic(pe, pdfBsdf(m, wo, wi));
-            L += beta * f * Le * (wi.z * w / pe);
+            float w = powerHeuristic(nl * pe, pdfBsdf(m, wo, wi));
+            L += beta * f * Le * (wi.z * w / (nl * pe));
           }
         }
       }
@@ -319,6 +350,7 @@ class Tracer {
       if (!isFinite(beta) || maxComponent(beta) <= 0) break;
       prev_pdf = bs.pdf;
       prev_specular = false;
+      prev_nl = nl;
       prev_p = origin;
       // Auxiliary rays follow the mirror transfer about the shading normal (the surface's
       // curvature is neglected); after a rough bounce this underestimates the footprint.
@@ -342,12 +374,329 @@ class Tracer {
     return L;
   }
 
+  // ---------------------------------------------------------------------------------------------
+  // The groove renderer (Bosch 2007 §4.2-4.3; shared/reference/bosch-grooves.md §2.2-2.3)
+  // ---------------------------------------------------------------------------------------------
+
+  // The grooves under one camera hit, in the hit's cross-section frame: T along the (first)
+  // groove, B across it, W the surface normal; the merged section and the footprint along B.
+  struct GrooveSet {
+    Vec3f T, B, W;
+    Vec3f F;  // the footprint centre (the hit on the base surface)
+    groove::Section section;
+    groove::Footprint fp;
+    // Ends and crossings (Bosch §4.2.4) are not integrated by polygon clipping here; the
+    // documented fallback: a groove whose end lies in the footprint is blended by the share of
+    // the footprint along T that it covers (`end_share`, rendered with and without it), and of
+    // crossing grooves only the locally deepest direction is kept.
+    float end_share = 1.0f;
+    groove::Section section_without;  // the section without the ending grooves (when end_share < 1)
+  };
+
+  // Candidate scratches near a hit: closest points within reach of the footprint.
+  struct NearGroove {
+    const Scratch* sc;
+    PathPoint pp;
+  };
+
+  void nearGrooves(const SurfacePoint& sp, float reach_extra, std::vector<NearGroove>& out) const {
+    out.clear();
+    float fpr = footprintOf(sp);
+    float reach = fpr + max_half_ + reach_extra;
+    s_.defect_index.forEach(sp.uv, reach, [&](const Defect& d) {
+      if (d.cls() != DefectClass::Scratch) return;
+      const auto& sc = static_cast<const Scratch&>(d);
+      float r = fpr + float(sc.referenceProfile().halfExtent()) * sc.maxScale() + reach_extra;
+      PathPoint pp = sc.path().closest(sp.uv, r);
+      if (pp.found && sc.maxScale() > 0) out.push_back({&sc, pp});
+    });
+  }
+
+  // Orthonormal frame of a groove at a hit: T from the UV tangent, W the (unperturbed) normal,
+  // B along the UV chart's W x T direction (so that the profile's b > 0 is the path's left, also
+  // on a mirrored chart).
+  static bool grooveFrame(const SurfacePoint& sp, Vec2f t_uv, Vec3f& T, Vec3f& B, Vec3f& W) {
+    W = sp.ns;
+    T = sp.dpdu * t_uv.x + sp.dpdv * t_uv.y;
+    T = T - W * dot(T, W);
+    B = sp.dpdu * (-t_uv.y) + sp.dpdv * t_uv.x;
+    B = B - W * dot(B, W) - T * (dot(B, T) / std::max(1e-20f, dot(T, T)));
+    float lt = length(T), lb = length(B);
+    if (!(lt > 0) || !(lb > 0)) return false;
+    T = T / lt;
+    B = B / lb;
+    return true;
+  }
+
+  // Collects the grooves whose cross-sections can affect the footprint (Bosch §4.2.1: the box is
+  // enlarged by the projected heights toward the viewer and the lights) and merges the parallel
+  // ones into one section. Returns false when no groove reaches the footprint.
+  bool gatherGrooves(const SurfacePoint& sp, const Hit& h, Vec3f wo_w, GrooveSet& gs) const {
+    // Only the outer side carries the grooves (seen from behind, the sheet is unscratched).
+    if (dot(s_.part->frame(h.prim).ng, wo_w) <= 0) return false;
+    float cos_v = std::max(1e-3f, dot(wo_w, sp.ns));
+    float tan_v = std::min(50.0f, std::sqrt(std::max(0.0f, 1 - cos_v * cos_v)) / cos_v);
+    float enlarge = (max_height_ + max_depth_) * std::max(tan_v, tan_light_max_);
+    thread_local std::vector<NearGroove> near;
+    nearGrooves(sp, enlarge, near);
+    if (near.empty()) return false;
+    // The reference direction: the deepest groove at the centre (crossings keep only the grooves
+    // parallel to it, the documented fallback for Bosch §4.2.4).
+    size_t ref = 0;
+    float best = 1e30f;
+    for (size_t i = 0; i < near.size(); ++i) {
+      float k = near[i].sc->scaleAt(near[i].pp.s);
+      float depth_here = k * float(near[i].sc->referenceProfile().depth());
+      float key = near[i].pp.distance - depth_here * 4.0f;
+      if (key < best) {
+        best = key;
+        ref = i;
+      }
+    }
+    Vec2f t0 = near[ref].pp.tangent;
+    if (!grooveFrame(sp, t0, gs.T, gs.B, gs.W)) return false;
+    gs.F = sp.p;
+    const float mm = sp.mm_per_uv;
+    // Footprint along B (Bosch §4.2.3 (2)), exact for the pixel's parallelogram.
+    gs.fp.w1 = std::fabs(dot(sp.dpdx, gs.B));
+    gs.fp.w2 = std::fabs(dot(sp.dpdy, gs.B));
+    // Footprint extent along T, for the ends.
+    float half_t = 0.5f * (std::fabs(dot(sp.dpdx, gs.T)) + std::fabs(dot(sp.dpdy, gs.T)));
+    thread_local std::vector<Profile> profiles;
+    thread_local std::vector<groove::PlacedProfile> placed, placed_without;
+    profiles.clear();
+    placed.clear();
+    placed_without.clear();
+    profiles.reserve(near.size());
+    double reach_b = gs.fp.halfWidth() + enlarge + max_half_ * mm;
+    float end_share = 1.0f;
+    for (const NearGroove& ng : near) {
+      float c = t0.x * ng.pp.tangent.x + t0.y * ng.pp.tangent.y;
+      if (std::fabs(c) < 0.99939f) continue;  // not parallel within 2 degrees: a crossing
+      float sign = c >= 0 ? 1.0f : -1.0f;
+      float k = ng.sc->scaleAt(ng.pp.s);
+      if (!(k > 0)) continue;
+      Profile p = ng.sc->profileAt(ng.pp.s);
+      for (auto& q : p.pts) q.x *= mm;
+      double offset = -double(sign) * ng.pp.offset * mm;
+      if (std::fabs(offset) > reach_b + p.halfExtent()) continue;
+      // An end inside the footprint: the share of the footprint along T that the groove covers.
+      float share = 1.0f;
+      if (ng.pp.beyond > 0 || ng.pp.s <= 0 || ng.pp.s >= ng.sc->path().length()) {
+        float beyond = ng.pp.beyond * mm;
+        share = half_t > 0 ? std::max(0.0f, std::min(1.0f, 0.5f - beyond / (2 * half_t))) : (beyond > 0 ? 0.0f : 1.0f);
+        if (share <= 0) continue;
+      }
+      profiles.push_back(std::move(p));
+      groove::PlacedProfile pl;
+      pl.pts = &profiles.back().pts;
+      pl.layer = &profiles.back().layer;
+      pl.offset = offset;
+      pl.mirrored = sign < 0;
+      placed.push_back(pl);
+      if (share < 1.0f)
+        end_share = std::min(end_share, share);
+      else
+        placed_without.push_back(pl);
+    }
+    if (placed.empty()) return false;
+    double extent = reach_b + 4 * (max_height_ + max_depth_) * 50.0 + 1.0;
+    gs.section = groove::merge(placed, extent);
+    gs.end_share = end_share;
+    if (end_share < 1.0f) gs.section_without = groove::merge(placed_without, extent);
+    return true;
+  }
+
+  // One light sample shared by every facet of the footprint.
+  struct LightSample {
+    Vec3f wl;      // world direction from the footprint centre
+    Rgb Le;        // radiance
+    float pdf;     // solid angle
+    bool visible;  // not occluded by the rest of the scene (tested once, from above the grooves)
+  };
+
+  // Reflected radiance of the footprint over a section (direct light on every visible facet
+  // portion with exact masking and shadowing, and inter-reflection by recursion on portions).
+  Rgb shadeSection(const GrooveSet& gs, const groove::Section& sec, const Material& top, Vec3f wo_w,
+                   const std::vector<LightSample>& ls, Rng& rng, uint64_t& nrays) const {
+    Vec2d e_bw(dot(wo_w, gs.B), dot(wo_w, gs.W));
+    std::vector<groove::Portion> portions = groove::visible(sec, e_bw, gs.fp);
+    return shadeLevel(gs, sec, top, portions, wo_w, Rgb(1.0f), 0, ls, rng, nrays);
+  }
+
+  // One level of the recursion: `portions` carry absolute footprint weights, seen from direction
+  // wo_w, with throughput beta per unit weight.
+  Rgb shadeLevel(const GrooveSet& gs, const groove::Section& sec, const Material& top,
+                 const std::vector<groove::Portion>& portions, Vec3f wo_w, Rgb beta, int level,
+                 const std::vector<LightSample>& ls, Rng& rng, uint64_t& nrays) const {
+    const int nl = st_.groove_light_samples;
+    // Directions sampled from the footprint at the first level (stratified over the portions);
+    // deeper levels follow one.
+    const int nb = level == 0 ? st_.groove_bsdf_samples : 1;
+    Rgb L(0.0f);
+    double wsum = 0;
+    for (const auto& p : portions) wsum += p.weight;
+    if (!(wsum > 0)) return L;
+    // Direct light on every portion, MIS against nb BSDF samples.
+    for (const auto& p : portions) {
+      Vec2d n2 = sec.normal(size_t(p.facet));
+      Vec3f N = gs.B * float(n2.x) + gs.W * float(n2.y);
+      const Material& m = facetMaterial(sec.layer[size_t(p.facet)], top);
+      Frame fr = Frame::fromNormalTangent(N, gs.T);
+      Vec3f wo = fr.toLocal(wo_w);
+      if (wo.z <= 0) continue;
+      for (const LightSample& l : ls) {
+        if (!l.visible) continue;
+        Vec3f wi = fr.toLocal(l.wl);
+        if (wi.z <= 0) continue;
+        double lit = groove::litFraction(sec, p, gs.fp, Vec2d(dot(l.wl, gs.B), dot(l.wl, gs.W)));
+        if (!(lit > 0)) continue;
+        Rgb f = evalBsdf(m, wo, wi);
+        float w = powerHeuristic(nl * l.pdf, nb * pdfBsdf(m, wo, wi));
+        L += beta * f * l.Le * float(p.weight * lit * wi.z * w / (nl * l.pdf));
+      }
+    }
+    if (level >= st_.max_groove_bounces) return L;
+    Vec3f origin = gs.F + gs.W * (max_height_ + rayEpsilon(gs.F));
+    for (int j = 0; j < nb; ++j) {
+      // A portion chosen by weight, a BSDF direction from it, then the portions that direction
+      // meets inside the groove (next level) and the share that escapes (an ordinary ray).
+      double u = (j + rng.uniformD()) / nb * wsum, acc = 0;
+      size_t pick = portions.size() - 1;
+      for (size_t i = 0; i < portions.size(); ++i) {
+        acc += portions[i].weight;
+        if (u < acc) {
+          pick = i;
+          break;
+        }
+      }
+      const groove::Portion& p = portions[pick];
+      if (!(p.weight > 0)) continue;
+      Vec2d n2 = sec.normal(size_t(p.facet));
+      Vec3f N = gs.B * float(n2.x) + gs.W * float(n2.y);
+      const Material& m = facetMaterial(sec.layer[size_t(p.facet)], top);
+      Frame fr = Frame::fromNormalTangent(N, gs.T);
+      Vec3f wo = fr.toLocal(wo_w);
+      BsdfSample bs;
+      float ul = rng.uniform();
+      Vec2f ud{rng.uniform(), rng.uniform()};
+      if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) continue;
+      Vec3f d = fr.toWorld(bs.wi);
+      Rgb ratio = bs.f * (bs.wi.z / bs.pdf);
+      if (!isFinite(ratio) || maxComponent(ratio) <= 0) continue;
+      groove::Scatter sc = groove::scatter(sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
+      Rgb beta_next = beta * ratio * float(wsum / (p.weight * nb));
+      if (sc.escaped > 0 && dot(d, gs.W) > 0) {
+        DiffRay r;
+        r.o = origin;
+        r.d = d;
+        r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
+        L += continuePath(r, beta_next * float(sc.escaped), nb * bs.pdf, false, origin, 1 + level, rng, nrays, nl);
+      }
+      if (!sc.hits.empty()) L += shadeLevel(gs, sec, top, sc.hits, -d, beta_next, level + 1, ls, rng, nrays);
+    }
+    return L;
+  }
+
+  Rgb shadeGrooves(const GrooveSet& gs, const SurfacePoint& sp, const Material& top, Vec3f wo_w, Rng& rng,
+                   uint64_t& nrays) const {
+    const int nl = st_.groove_light_samples;
+    // One sample per light, shared by all facets (the shadowing inside the grooves is exact per
+    // facet; the rest of the scene is tested once).
+    thread_local std::vector<LightSample> ls;
+    ls.clear();
+    Vec3f origin = gs.F + gs.W * (max_height_ + rayEpsilon(gs.F));
+    RTCScene scene = s_.part->scene();
+    // nl stratified samples per light (an nq x nq grid over the light's sample domain); each
+    // carries 1/nl of the estimate and the MIS weights count nl light samples per BSDF sample.
+    const int nq = std::max(1, int(std::lround(std::sqrt(float(nl)))));
+    for (const AreaLight& al : s_.lights.area)
+      for (int k = 0; k < nl; ++k) {
+        Vec2f u{((k % nq) + rng.uniform()) / nq, ((k / nq) % nq + rng.uniform()) / nq};
+        Vec3f q = al.samplePoint(u);
+        Vec3f wl = q - origin;
+        float dist = length(wl);
+        if (!(dist > 0)) continue;
+        wl = wl / dist;
+        if (-dot(wl, al.normal) <= 0) continue;
+        float pl = al.pdfSolidAngle(origin, q);
+        if (!(pl > 0)) continue;
+        ++nrays;
+        bool vis = !occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f));
+        ls.push_back({wl, al.radiance, pl, vis});
+      }
+    if (s_.lights.env)
+      for (int k = 0; k < nl; ++k) {
+        Vec2f u{((k % nq) + rng.uniform()) / nq, ((k / nq) % nq + rng.uniform()) / nq};
+        Rgb Le;
+        float pe;
+        Vec3f wl = s_.lights.env->sample(u, Le, pe);
+        if (pe > 0 && maxComponent(Le) > 0) {
+          ++nrays;
+          bool vis = !occluded(scene, origin, wl, 0.0f, kInf);
+          ls.push_back({wl, Le, pe, vis});
+        }
+      }
+    Rgb L = shadeSection(gs, gs.section, top, wo_w, ls, rng, nrays);
+    if (gs.end_share < 1.0f) {
+      Rgb L0 = shadeSection(gs, gs.section_without, top, wo_w, ls, rng, nrays);
+      L = L * gs.end_share + L0 * (1.0f - gs.end_share);
+    }
+    return L;
+  }
+
+  const Material& facetMaterial(int layer, const Material& top) const {
+    if (layer <= 0 || size_t(layer) >= s_.layer_materials.size()) return top;
+    return s_.layer_materials[size_t(layer)];
+  }
+
+  // Coverage of each scratch's visible facets in the pixel footprint (for the masks): per scratch,
+  // its own section alone seen from the camera, the weight of its non-flat facets.
+  void scratchCoverage(const SurfacePoint& sp, const Hit& h, Vec3f wo_w, std::vector<float>& cov) const {
+    if (dot(s_.part->frame(h.prim).ng, wo_w) <= 0) return;
+    thread_local std::vector<NearGroove> near;
+    float cos_v = std::max(1e-3f, dot(wo_w, sp.ns));
+    float tan_v = std::min(50.0f, std::sqrt(std::max(0.0f, 1 - cos_v * cos_v)) / cos_v);
+    nearGrooves(sp, (max_height_ + max_depth_) * tan_v, near);
+    for (const NearGroove& ng : near) {
+      Vec3f T, B, W;
+      if (!grooveFrame(sp, ng.pp.tangent, T, B, W)) continue;
+      float k = ng.sc->scaleAt(ng.pp.s);
+      if (!(k > 0) || ng.pp.beyond > 0) continue;
+      Profile p = ng.sc->profileAt(ng.pp.s);
+      for (auto& q : p.pts) q.x *= sp.mm_per_uv;
+      groove::PlacedProfile pl;
+      pl.pts = &p.pts;
+      pl.layer = &p.layer;
+      pl.offset = -double(ng.pp.offset) * sp.mm_per_uv;
+      groove::Footprint fp;
+      fp.w1 = std::fabs(dot(sp.dpdx, B));
+      fp.w2 = std::fabs(dot(sp.dpdy, B));
+      double extent = fp.halfWidth() + std::fabs(pl.offset) + p.halfExtent() + (max_height_ + max_depth_) * 50.0 + 1.0;
+      groove::Section sec = groove::merge({pl}, extent);
+      double lo = pl.offset + p.bMin(), hi = pl.offset + p.bMax();
+      float c = 0;
+      for (const auto& por : groove::visible(sec, Vec2d(dot(wo_w, B), dot(wo_w, W)), fp)) {
+        Vec2d a = groove::pointOn(sec, por.facet, 0.0), b = groove::pointOn(sec, por.facet, 1.0);
+        // Facets of the scratch: inside its b range and not on the base line.
+        bool flat = a.y == 0 && b.y == 0;
+        if (!flat && a.x >= lo - 1e-12 && b.x <= hi + 1e-12) c += float(por.weight);
+      }
+      uint16_t id = ng.sc->instanceId();
+      if (id < cov.size()) cov[id] = std::max(cov[id], c);
+    }
+  }
+
   const RenderScene& s_;
   const RenderSettings& st_;
   const TriangleMesh& mesh_;
   bool has_defects_;
   bool needs_cavity_ = false;
   bool has_paint_ = false;
+  bool has_scratches_ = false;
+  bool grooves_ = false;
+  float max_height_ = 0, max_depth_ = 0, max_half_ = 0;  // over all scratches (mm)
+  float tan_light_max_ = 6.0f;  // cap on the shadow reach toward grazing lights (Bosch §4.2.1)
 };
 
 DiffRay cameraRay(const RayGenerator& gen, float px, float py) {
@@ -358,6 +707,35 @@ DiffRay cameraRay(const RayGenerator& gen, float px, float py) {
 }
 
 }  // namespace
+
+std::vector<Material> layerMaterials(const Material& part, const LayerStack& stack) {
+  std::vector<Material> out;
+  for (size_t i = 0; i < stack.layers.size(); ++i) {
+    if (i == 0) {
+      out.push_back(part);
+      continue;
+    }
+    const std::string& name = stack.layers[i].name;
+    Material m;
+    if (name == "steel") {
+      const MetalIor* ior = findMetal("steel");
+      m.kind = MaterialKind::Conductor;
+      m.eta = ior->eta;
+      m.k = ior->k;
+      m.roughness = 0.3f;
+    } else if (name == "base_coat") {
+      m.kind = MaterialKind::RoughDiffuse;
+      m.base_color = part.base_color;
+      m.sigma = 0.3f;
+    } else {  // primer and anything else: a grey rough diffuse layer
+      m.kind = MaterialKind::RoughDiffuse;
+      m.base_color = Rgb(0.32f, 0.32f, 0.30f);
+      m.sigma = 0.4f;
+    }
+    out.push_back(m);
+  }
+  return out;
+}
 
 RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
   const int W = scene.camera.K.width, H = scene.camera.K.height;
@@ -376,12 +754,18 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
   std::atomic<uint64_t> rays{0};
   const int K = std::max(1, st.coverage_grid);
   const int ninst = scene.defects ? int(scene.defects->size()) : 0;
+  // Strata for groove rendering: sx * sy = spp with sy the largest divisor <= sqrt(spp).
+  int sy = 1;
+  for (int d = 1; d * d <= st.spp; ++d)
+    if (st.spp % d == 0) sy = d;
+  const int sx = st.spp / sy;
 
   parallelFor(size_t(tx) * ty, [&](size_t tile) {
     int x0 = int(tile % tx) * kTile, y0 = int(tile / tx) * kTile;
     int x1 = std::min(W, x0 + kTile), y1 = std::min(H, y0 + kTile);
     uint64_t local_rays = 0;
     std::vector<uint16_t> counts(size_t(ninst) + 1);
+    std::vector<float> scov(size_t(ninst) + 1);
     for (int y = y0; y < y1; ++y)
       for (int x = x0; x < x1; ++x) {
         uint64_t pixel = uint64_t(y) * W + x;
@@ -390,8 +774,19 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
           for (int s = 0; s < st.spp; ++s) {
             Rng rng(hashKey(st.seed, uint64_t(Stream::Pixel), st.sample_index, pixel * 65536u + s));
             // Pixel (x, y) covers [x - 0.5, x + 0.5] in OpenCV's convention; box filter.
-            float px = x - 0.5f + rng.uniform(), py = y - 0.5f + rng.uniform();
-            Rgb c = tracer.trace(cameraRay(gen, px, py), rng, local_rays);
+            float jx = rng.uniform(), jy = rng.uniform();
+            DiffRay r;
+            if (tracer.grooves_) {
+              // Groove rendering integrates each stratum's footprint analytically: samples sit at
+              // the centres of sx x sy strata with a footprint of one stratum.
+              int i = s % sx, j = s / sx;
+              r = cameraRay(gen, x - 0.5f + (i + 0.5f) / sx, y - 0.5f + (j + 0.5f) / sy);
+              r.dddx = r.dddx / float(sx);
+              r.dddy = r.dddy / float(sy);
+            } else {
+              r = cameraRay(gen, x - 0.5f + jx, y - 0.5f + jy);
+            }
+            Rgb c = tracer.trace(r, rng, local_rays);
             if (isFinite(c)) sum += c;
           }
           float* o = out.rgb.at(x, y);
@@ -422,6 +817,17 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
           // The footprint's visible surface, sampled on a K x K grid of primary rays: the
           // fraction of those points inside each defect's labelled region is its coverage.
           std::fill(counts.begin(), counts.end(), 0);
+          std::fill(scov.begin(), scov.end(), 0.0f);
+          if (tracer.has_scratches_) {
+            // Scratches: the analytic coverage of their visible facets in the pixel footprint.
+            DiffRay r = cameraRay(gen, float(x), float(y));
+            Hit h = intersect(scene.part->scene(), r.o, r.d, 0.0f, kInf);
+            ++local_rays;
+            if (h.hit) {
+              SurfacePoint sp = tracer.surface(h, r, true);
+              if (sp.uv_ok) tracer.scratchCoverage(sp, h, -r.d, scov);
+            }
+          }
           for (int j = 0; j < K; ++j)
             for (int i = 0; i < K; ++i) {
               float px = x - 0.5f + (i + 0.5f) / K, py = y - 0.5f + (j + 0.5f) / K;
@@ -436,14 +842,20 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
               q.uv = uvs[f[0]] * (1 - h.b1 - h.b2) + uvs[f[1]] * h.b1 + uvs[f[2]] * h.b2;
               if (tracer.needs_cavity_) q.cavity = scene.part->occlusionAt(h.prim, h.b1, h.b2);
               scene.defect_index.forEach(q.uv, 0.0f, [&](const Defect& d) {
-                if (d.inMask(q)) ++counts[d.instanceId()];
+                if (d.cls() != DefectClass::Scratch && d.inMask(q)) ++counts[d.instanceId()];
               });
             }
           uint16_t best = 0;
-          for (int id = 1; id <= ninst; ++id)
-            if (counts[id] > counts[best] || (best == 0 && counts[id] > 0)) best = uint16_t(id);
+          float best_cov = 0;
+          for (int id = 1; id <= ninst; ++id) {
+            float c = std::max(float(counts[id]) / float(K * K), scov[id]);
+            if (c > best_cov) {
+              best_cov = c;
+              best = uint16_t(id);
+            }
+          }
           out.dominant(x, y) = best;
-          out.coverage(x, y) = best ? float(counts[best]) / float(K * K) : 0.0f;
+          out.coverage(x, y) = best_cov;
         }
       }
     rays += local_rays;

@@ -9,6 +9,7 @@
 #include "core/image.h"
 #include "defects/defect.h"
 #include "defects/defect_index.h"
+#include "defects/scratch.h"
 #include "render/bsdf.h"
 #include "render/camera.h"
 #include "render/lights.h"
@@ -25,7 +26,19 @@ struct RenderScene {
   const DefectList* defects = nullptr;  // may be null or empty
   DefectIndex defect_index;             // empty when there are no defects
   std::shared_ptr<const PaintVariation> paint;  // car paint's orange peel and flakes; null = none
+  // Scratches by the groove renderer (Bosch 2007 §4.2-4.3, render/groove.h): camera hits whose
+  // footprint meets a scratch integrate the footprint over its cross-section. Camera samples then
+  // sit at the centres of an nx x ny grid of strata (nx * ny = spp) with a footprint of one stratum.
+  bool groove_shading = false;
+  // The material of each coating layer a scratch facet may expose (index = LayerStack layer; 0 =
+  // the part's own material, which then keeps its paint variation).
+  std::vector<Material> layer_materials;
 };
+
+// The materials a scratch exposes, per layer: the part's own material for layer 0; for car paint
+// the base coat (rough diffuse in the base colour), the primer (rough diffuse grey) and bare steel
+// (exact conductor Fresnel, roughness 0.3) below it.
+std::vector<Material> layerMaterials(const Material& part, const LayerStack& stack);
 
 struct RenderSettings {
   int spp = 16;
@@ -37,6 +50,12 @@ struct RenderSettings {
   bool want_normals = false;   // world shading normal (after bump) of the pixel-centre hit
   bool want_coverage = false;  // per-pixel dominant defect instance and its coverage
   int coverage_grid = 4;       // the pixel footprint is sampled on a grid of n x n points
+  int max_groove_bounces = 3;  // inter-reflections followed inside a groove (Bosch §4.3)
+  // Light samples per light at a groove footprint (stratified over the light), and at every other
+  // camera hit when groove shading is on: the footprint is integrated exactly, so the light's
+  // extent is what is left to sample.
+  int groove_light_samples = 16;
+  int groove_bsdf_samples = 8;  // directions sampled per camera sample at a groove footprint
 };
 
 struct RenderStats {

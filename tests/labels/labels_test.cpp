@@ -92,10 +92,24 @@ CoverageFrame smallFrame() {
   f.coverage = Image<float>(4, 2, 1);
   const float cov[] = {0.9f, 0.5f, 0.4999f, 1.0f, 0.75f, 0.49f, 0.51f, 0.8f};
   for (int i = 0; i < 8; ++i) f.coverage.data[i] = cov[i];
-  f.instances = {{1, DefectClass::Scratch, {}}, {2, DefectClass::Rust, {}}};
+  f.instances = {{1, DefectClass::Patina, {}}, {2, DefectClass::Rust, {}}};
   return f;
 }
 }  // namespace
+
+TEST(Masks, ScratchesUseTheThinStructureThreshold) {
+  CoverageFrame f = smallFrame();
+  f.instances[0].cls = DefectClass::Scratch;  // instance 1: labelled from coverage 0.1 on
+  f.coverage(1, 0) = 0.1f;
+  f.coverage(2, 0) = 0.0999f;
+  f.coverage(2, 1) = 0.3f;
+  Image<uint16_t> m = instanceMask(f);
+  EXPECT_EQ(m.data, (fromRows<uint16_t>({{0, 1, 0, 2}, {2, 0, 1, 0}}).data));
+  Image<uint8_t> s = semanticMask(f);
+  EXPECT_EQ(s.data, (fromRows<uint8_t>({{0, 2, 0, 3}, {3, 0, 2, 0}}).data));
+  // The rust pixel at 0.49 still needs half the footprint.
+  EXPECT_EQ(m(1, 1), 0);
+}
 
 TEST(Masks, InstanceMaskThresholdAtHalf) {
   CoverageFrame f = smallFrame();
@@ -110,7 +124,7 @@ TEST(Masks, InstanceMaskThresholdAtHalf) {
 TEST(Masks, SemanticMaskUsesInstanceClass) {
   CoverageFrame f = smallFrame();
   Image<uint8_t> s = semanticMask(f);
-  Image<uint8_t> want = fromRows<uint8_t>({{0, 2, 0, 3}, {3, 0, 2, 0}});
+  Image<uint8_t> want = fromRows<uint8_t>({{0, 4, 0, 3}, {3, 0, 4, 0}});
   EXPECT_EQ(s.data, want.data);
 }
 

@@ -1,0 +1,104 @@
+// Footprint integration over grooves in cross-section space (Bosch 2007 §4.2.3, "1-D line
+// sampling"; shared/reference/bosch-grooves.md §2.2.3 and §2.3). Pure 2-D geometry in doubles,
+// no renderer types: the integrator turns its pixel footprint, view and light directions into the
+// groove's local frame (T along the path, B = W x T across it, W the surface normal) and asks
+// this module which facet portions are seen, lit, and what a reflection off a portion meets.
+//
+// Inside one footprint the grooves are prisms along T (digest §1.7), so projecting along a 3-D
+// direction d = (d_t, d_b, d_w) equals projecting in the BW plane along (d_b, d_w): a point
+// (b, w) lands on the base line at x = b - w * d_b / d_w.
+#pragma once
+#include <vector>
+
+#include "core/math.h"
+
+namespace dg::groove {
+
+// A merged cross-section in footprint-centred coordinates: points (b, w), b non-decreasing,
+// starting and ending on w = 0; facet k joins pts[k] and pts[k+1] and shows material layer
+// layer[k] (0 = the part's own top layer). The flat base surface between and around grooves is
+// made of ordinary facets with w = 0.
+struct Section {
+  std::vector<Vec2d> pts;
+  std::vector<int> layer;
+  size_t facets() const { return pts.size() < 2 ? 0 : pts.size() - 1; }
+  // Unit outward normal of facet k in (b, w): the facet direction turned +90 degrees,
+  // (-dw, db) / len, so flat facets have (0, 1).
+  Vec2d normal(size_t k) const;
+};
+
+// One groove's profile placed in the footprint: its points are at b + offset (offset = B.(P - F):
+// the path's position relative to the footprint centre F), mirrored (b -> -b, order reversed)
+// first when `mirrored` (a parallel path running the other way).
+struct PlacedProfile {
+  const std::vector<Vec2d>* pts = nullptr;
+  const std::vector<int>* layer = nullptr;
+  double offset = 0;
+  bool mirrored = false;
+};
+
+// Concatenates the placed profiles in order of b and adds flat facets (layer 0) from -extent to
+// the first and from the last to +extent, and between profiles. Profiles that overlap in b (which
+// Bosch excludes) are merged by keeping, at every b, the lower surface (the union of the removed
+// material) — implemented by clipping the later profile against the earlier one. extent must be
+// at least the farthest projected footprint coordinate the caller will use.
+Section merge(const std::vector<PlacedProfile>& grooves, double extent);
+
+// The footprint's weighting along the base line (footprint-centred): the pixel footprint is a
+// parallelogram spanned by a1, a2; its projection onto B weights x by the convolution of two boxes
+// of widths w1 = |a1.B| and w2 = |a2.B| (a trapezoid of total width w1 + w2, unit area), exactly
+// the pixel's box filter restricted to one axis. Either width may be 0 (a single box); both 0 is a
+// point footprint at x = 0 (weight is then all-or-nothing).
+struct Footprint {
+  double w1 = 0, w2 = 0;
+  double halfWidth() const { return 0.5 * (w1 + w2); }
+  // Integral of the weight over [x0, x1] (in [0, 1]; x0 <= x1).
+  double weight(double x0, double x1) const;
+};
+
+// A portion of facet `facet`: parameter t in [t0, t1] of [0, 1] from pts[k] to pts[k+1], with
+// the footprint weight it carries (fraction of the pixel). x0 and x1 are the footprint
+// coordinates (on the base line, where the footprint weight lives) that the portion's ends come
+// from, affine in t in between: for a directly seen portion its view projection; for a portion hit
+// after scatter() the footprint coordinates of the points the rays started from. So the weight of
+// any sub-range [ta, tb] of the portion is fp.weight over the mapped x range.
+struct Portion {
+  int facet = -1;
+  double t0 = 0, t1 = 1;
+  double x0 = 0, x1 = 0;
+  double weight = 0;
+  double xAt(double t) const { return t1 > t0 ? x0 + (x1 - x0) * (t - t0) / (t1 - t0) : x0; }
+};
+
+// The facet portions visible from direction e (pointing from the surface towards the viewer;
+// e.w > 0; only e.b / e.w matters) inside the footprint: masking by ordered projection (running
+// maximum or minimum, digest §2.2.3 (3)), clipped to the footprint, weighted by fp. The weights
+// of all returned portions sum to 1 (within rounding) because the profile starts and ends on the
+// base line and the flat ends reach past the footprint. Portions of zero weight are dropped.
+// Grazing e.w is clamped to 1e-6 (finite results).
+std::vector<Portion> visible(const Section& s, Vec2d e_bw, const Footprint& fp);
+
+// The lit part of portion p for light direction l (towards the light, in the BW plane; l.w may
+// be <= 0: then only facets facing it can be lit and nothing on the base line is): the fraction
+// of the portion's weight whose points see the light unoccluded by the section (shadowing by
+// ordered projection along l, intersected with the portion in the facet parameter t), and 0 when
+// the facet faces away from l. Weighting inside the portion is the footprint weight through
+// Portion::xAt (so the result is exact for the trapezoid filter).
+double litFraction(const Section& s, const Portion& p, const Footprint& fp, Vec2d l_bw);
+
+// Where rays leaving portion p in direction d (BW plane, pointing away from facet p.facet, i.e.
+// dot(d, normal) > 0) go: sub-portions of other facets they hit first (each with the share of
+// p.weight that lands there, facet parameters of the hit points, and x0/x1 carried over from p),
+// and the share that leaves the groove unobstructed (`escaped`). Shares sum to p.weight. Section §4.3 of Bosch: the
+// recursion on visible facet portions. Directions with dot(d, normal) <= 0 return nothing hit
+// and escaped = 0.
+struct Scatter {
+  std::vector<Portion> hits;  // .weight = share of p.weight
+  double escaped = 0;
+};
+Scatter scatter(const Section& s, const Portion& p, const Footprint& fp, Vec2d d_bw);
+
+// The point of facet k at parameter t.
+Vec2d pointOn(const Section& s, int k, double t);
+
+}  // namespace dg::groove

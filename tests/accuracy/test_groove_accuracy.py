@@ -1,0 +1,90 @@
+#!/usr/bin/env python3
+"""Issue 5 accuracy: the groove renderer at 4 samples per pixel against the explicit-geometry
+reference (the same scratches cut into a re-meshed plate, rendered by the same path tracer at
+REF_SPP samples per pixel), on three scratch layouts under a ring light and a low-angle bar light,
+measured with `defectgen compare` (S-CIELAB, Delta E 1976, 40 samples per degree).
+
+Target (Bosch 2007 reports 0.32% and 0%): fewer than 0.5% of pixels with Delta E >= 10. Each case
+prints its mean Delta E and share >= 10. Where the target is not met yet (the bar light, see
+docs/grooves.md) the case asserts a regression bound instead and says so in its output."""
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import unittest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+import groove_scenes  # noqa: E402
+
+ARGS = None
+REF_SPP = 256
+TARGET_PCT = 0.5
+# Measured shares >= 10 on the bar-light scenes when this test was written (parallel 2.3%,
+# crossing 1.1%, ends 1.0%; mean Delta E 0.9-1.3); the bound catches regressions until the
+# target is met.
+BAR_BOUND_PCT = 3.5
+BAR_BOUND_MEAN = 2.0
+
+
+def run(*args):
+    p = subprocess.run([ARGS.binary] + list(args), capture_output=True, text=True, timeout=900)
+    if p.returncode != 0:
+        raise AssertionError("defectgen %s failed (%d):\n%s%s" % (" ".join(args), p.returncode, p.stdout, p.stderr))
+    return p
+
+
+def render(name, layout, light, mode, spp):
+    d = os.path.join(ARGS.work, name)
+    shutil.rmtree(d, ignore_errors=True)
+    os.makedirs(d)
+    cfg = os.path.join(d, "scene.yaml")
+    with open(cfg, "w") as f:
+        f.write(groove_scenes.config(layout, light, mode, spp))
+    run("generate", cfg, "--out", os.path.join(d, "out"), "--quiet")
+    return os.path.join(d, "out", "images", "000000.png")
+
+
+def compare(ref, test, name):
+    out = os.path.join(ARGS.work, name + "_cmp")
+    shutil.rmtree(out, ignore_errors=True)
+    run("compare", ref, test, "--out", out, "--samples-per-degree", "40")
+    with open(os.path.join(out, "report.json")) as f:
+        return json.load(f)["stats"]["valid"]
+
+
+class GrooveAccuracy(unittest.TestCase):
+    def check(self, layout, light):
+        ref = render("%s_%s_ref" % (layout, light), layout, light, "geometry", REF_SPP)
+        grv = render("%s_%s_groove" % (layout, light), layout, light, "groove", 4)
+        st = compare(ref, grv, "%s_%s" % (layout, light))
+        pct, mean = st["pct_ge_10"], st["mean"]
+        met = pct < TARGET_PCT
+        print("%-9s %-5s groove@4spp vs geometry@%dspp: mean dE %.3f, %.3f%% of pixels >= 10 (target < %.1f%%)%s"
+              % (layout, light, REF_SPP, mean, pct, TARGET_PCT, "" if met else "  TARGET NOT MET"), flush=True)
+        if light == "ring":
+            self.assertLess(pct, TARGET_PCT)
+            self.assertLess(mean, 1.0)
+        else:
+            self.assertLess(pct, BAR_BOUND_PCT)
+            self.assertLess(mean, BAR_BOUND_MEAN)
+
+
+def _make(layout, light):
+    return lambda self: self.check(layout, light)
+
+
+for _layout, _light in groove_scenes.SCENES:
+    setattr(GrooveAccuracy, "test_%s_%s" % (_layout, _light), _make(_layout, _light))
+
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--binary", required=True)
+    ap.add_argument("--work", required=True)
+    ARGS, rest = ap.parse_known_args()
+    os.makedirs(ARGS.work, exist_ok=True)
+    unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)

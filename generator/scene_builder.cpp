@@ -327,6 +327,22 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
   json dj = json::array();
   const Value& groups = root["defects"];
   float displace_edge = 1e30f;
+  // Registers a placed defect: its instance id, its COCO attributes (physical parameters, the
+  // group, and `extra`) and its entry in the sample's metadata.
+  auto addInstance = [&](std::unique_ptr<Defect> defect, size_t g, const json& extra) {
+    uint16_t id = uint16_t(s.defects->size() + 1);
+    defect->setInstanceId(id);
+    InstanceInfo info;
+    info.id = id;
+    info.cls = defect->cls();
+    info.attributes = defect->attributes();
+    info.attributes["group"] = g;
+    info.attributes.update(extra);
+    s.instances.push_back(info);
+    dj.push_back({{"instance_id", id}, {"class", defect->kind()}, {"group", g}, {"attributes", info.attributes}});
+    s.defects->push_back(std::move(defect));
+  };
+  const std::string scratch_mode = r["scratches"].str();
   for (size_t g = 0; g < groups.items.size(); ++g) {
     const Value& d = groups.items[g];
     int count = int(sampleNumber(d["count"], rng, rec));
@@ -377,17 +393,7 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
           std::string mode = d["displacement"].str();
           dent->setDisplaced(mode == "geometry" || (mode == "auto" && dent->needsGeometry(uvb)));
           if (dent->wantsDisplacement()) displace_edge = std::min(displace_edge, float(d["displacement_edge_mm"].num()));
-          uint16_t id = uint16_t(s.defects->size() + 1);
-          dent->setInstanceId(id);
-          InstanceInfo info;
-          info.id = id;
-          info.cls = dent->cls();
-          info.attributes = dent->attributes();
-          info.attributes["group"] = g;
-          info.attributes["cluster"] = k;
-          s.instances.push_back(info);
-          dj.push_back({{"instance_id", id}, {"class", "dent"}, {"group", g}, {"attributes", info.attributes}});
-          s.defects->push_back(std::move(dent));
+          addInstance(std::move(dent), g, {{"cluster", k}});
         }
       } else if (type == "scratch") {
         // Scratches: paths in the UV chart (mm), cross-sections from the process (Bosch 2007 §3.2)
@@ -469,20 +475,10 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
           } catch (const std::invalid_argument& e) {
             throw InputError(c.file, d.line, d.column, "'" + d.path + "': invalid scratch: " + e.what());
           }
-          sc->setBumpShading(root["render"]["scratches"].str() == "normal_map");
+          sc->setBumpShading(scratch_mode == "normal_map");
           std::string suffix = paths.size() > 1 ? "#" + std::to_string(j) : "";
           for (auto& kv : one.items()) local[kv.key() + suffix] = kv.value();
-          uint16_t id = uint16_t(s.defects->size() + 1);
-          sc->setInstanceId(id);
-          InstanceInfo info;
-          info.id = id;
-          info.cls = sc->cls();
-          info.attributes = sc->attributes();
-          info.attributes["group"] = g;
-          info.attributes["pattern"] = pattern;
-          s.instances.push_back(info);
-          dj.push_back({{"instance_id", id}, {"class", "scratch"}, {"group", g}, {"attributes", info.attributes}});
-          s.defects->push_back(std::move(sc));
+          addInstance(std::move(sc), g, {{"pattern", pattern}});
         }
       } else if (type == "dent") {
         DentParams dp;
@@ -547,17 +543,8 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
         std::string base = "defects[" + std::to_string(g) + "]";
         rec[base + "[" + std::to_string(k) + "]" + key.substr(base.size())] = kv.value();
       }
-      if (!defect) continue;  // hail clusters added their dents already
-      uint16_t id = uint16_t(s.defects->size() + 1);
-      defect->setInstanceId(id);
-      InstanceInfo info;
-      info.id = id;
-      info.cls = defect->cls();
-      info.attributes = defect->attributes();
-      info.attributes["group"] = g;
-      s.instances.push_back(info);
-      dj.push_back({{"instance_id", id}, {"class", defect->kind()}, {"group", g}, {"attributes", info.attributes}});
-      s.defects->push_back(std::move(defect));
+      if (!defect) continue;  // hail clusters and scratches added their instances already
+      addInstance(std::move(defect), g, json::object());
     }
   }
   if (s.defects->size() > 65535) throw InputError(c.file, groups.line, groups.column, "more than 65535 defects in one sample");
@@ -586,7 +573,6 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
   }
   // Scratches: the renderer's mode, and for the explicit-geometry reference a re-meshed part with
   // the cross-sections cut in (shared by nothing else: per sample, like displaced dents).
-  std::string scratch_mode = root["render"]["scratches"].str();
   std::vector<const Scratch*> scratches;
   for (auto& d : *s.defects)
     if (d->cls() == DefectClass::Scratch) scratches.push_back(static_cast<const Scratch*>(d.get()));

@@ -79,6 +79,15 @@ bool occluded(RTCScene scene, Vec3f o, Vec3f d, float tnear, float tfar) {
   return r.tfar < 0;  // Embree sets tfar to -inf on occlusion
 }
 
+// Light samples: n per light, stratified on an nq x nq grid over the light's sample domain
+// (nq = round(sqrt(n)); sample k falls in stratum k mod nq^2). One sample is one uniform point.
+int strataPerAxis(int n) { return std::max(1, int(std::lround(std::sqrt(float(n))))); }
+Vec2f stratifiedSample(int k, int nq, Rng& rng) {
+  float ux = ((k % nq) + rng.uniform()) / nq;
+  float uy = ((k / nq) % nq + rng.uniform()) / nq;
+  return {ux, uy};
+}
+
 float powerHeuristic(float a, float b) {
   float a2 = a * a, b2 = b * b;
   return a2 + b2 > 0 ? a2 / (a2 + b2) : 0.0f;
@@ -303,10 +312,10 @@ class Tracer {
       // groove's count at camera hits so that flat and grooved pixels converge alike), MIS
       // against the BSDF's sampling.
       const int nl = (depth == 0 && grooves_) ? st_.groove_light_samples : 1;
-      const int nq = std::max(1, int(std::lround(std::sqrt(float(nl)))));
+      const int nq = strataPerAxis(nl);
       for (const AreaLight& al : s_.lights.area)
         for (int k = 0; k < nl; ++k) {
-        Vec2f u{((k % nq) + rng.uniform()) / nq, ((k / nq) % nq + rng.uniform()) / nq};
+        Vec2f u = stratifiedSample(k, nq, rng);
         Vec3f q = al.samplePoint(u);
         Vec3f wl = q - origin;
         float dist = length(wl);
@@ -325,7 +334,7 @@ class Tracer {
       }
       if (s_.lights.env)
         for (int k = 0; k < nl; ++k) {
-        Vec2f u{((k % nq) + rng.uniform()) / nq, ((k / nq) % nq + rng.uniform()) / nq};
+        Vec2f u = stratifiedSample(k, nq, rng);
         Rgb Le;
         float pe;
         Vec3f wl = s_.lights.env->sample(u, Le, pe);
@@ -609,10 +618,10 @@ class Tracer {
     RTCScene scene = s_.part->scene();
     // nl stratified samples per light (an nq x nq grid over the light's sample domain); each
     // carries 1/nl of the estimate and the MIS weights count nl light samples per BSDF sample.
-    const int nq = std::max(1, int(std::lround(std::sqrt(float(nl)))));
+    const int nq = strataPerAxis(nl);
     for (const AreaLight& al : s_.lights.area)
       for (int k = 0; k < nl; ++k) {
-        Vec2f u{((k % nq) + rng.uniform()) / nq, ((k / nq) % nq + rng.uniform()) / nq};
+        Vec2f u = stratifiedSample(k, nq, rng);
         Vec3f q = al.samplePoint(u);
         Vec3f wl = q - origin;
         float dist = length(wl);
@@ -627,7 +636,7 @@ class Tracer {
       }
     if (s_.lights.env)
       for (int k = 0; k < nl; ++k) {
-        Vec2f u{((k % nq) + rng.uniform()) / nq, ((k / nq) % nq + rng.uniform()) / nq};
+        Vec2f u = stratifiedSample(k, nq, rng);
         Rgb Le;
         float pe;
         Vec3f wl = s_.lights.env->sample(u, Le, pe);

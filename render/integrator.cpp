@@ -296,7 +296,7 @@ class Tracer {
       if (depth == 0 && grooves_ && sp.uv_ok) {
         GrooveSet gs;
         if (gatherGrooves(sp, h, wo_w, gs)) {
-          L += beta * shadeGrooves(gs, sp, m, wo_w, rng, nrays);
+          L += beta * shadeGrooves(gs, m, wo_w, rng, nrays);
           break;
         }
       }
@@ -437,15 +437,41 @@ class Tracer {
     return true;
   }
 
+  // Only the outer side of the part carries grooves (seen from behind, the sheet is unscratched).
+  bool outerSide(const Hit& h, Vec3f wo_w) const { return dot(s_.part->frame(h.prim).ng, wo_w) > 0; }
+
+  // tan of the angle between the view and the normal, capped (grazing views, Bosch §4.2.1).
+  static float viewTan(const SurfacePoint& sp, Vec3f wo_w) {
+    float cos_v = std::max(1e-3f, dot(wo_w, sp.ns));
+    return std::min(50.0f, std::sqrt(std::max(0.0f, 1 - cos_v * cos_v)) / cos_v);
+  }
+
+  // The pixel footprint's projection onto the cross-section axis B (Bosch §4.2.3 (2)), exact for
+  // the pixel's parallelogram.
+  static groove::Footprint footprintAcross(const SurfacePoint& sp, Vec3f B) {
+    groove::Footprint fp;
+    fp.w1 = std::fabs(dot(sp.dpdx, B));
+    fp.w2 = std::fabs(dot(sp.dpdy, B));
+    return fp;
+  }
+
+  // The groove's cross-section at its closest point, with b in mm of surface (the chart's stretch).
+  static Profile surfaceProfile(const NearGroove& ng, float mm_per_uv) {
+    Profile p = ng.sc->profileAt(ng.pp.s);
+    for (auto& q : p.pts) q.x *= mm_per_uv;
+    return p;
+  }
+
+  // Half-extent of a merged section: past `reach` (the farthest footprint coordinate in use) by
+  // the largest projection of the grooves' heights at a capped grazing angle.
+  double sectionExtent(double reach) const { return reach + 4 * (max_height_ + max_depth_) * 50.0 + 1.0; }
+
   // Collects the grooves whose cross-sections can affect the footprint (Bosch §4.2.1: the box is
   // enlarged by the projected heights toward the viewer and the lights) and merges the parallel
   // ones into one section. Returns false when no groove reaches the footprint.
   bool gatherGrooves(const SurfacePoint& sp, const Hit& h, Vec3f wo_w, GrooveSet& gs) const {
-    // Only the outer side carries the grooves (seen from behind, the sheet is unscratched).
-    if (dot(s_.part->frame(h.prim).ng, wo_w) <= 0) return false;
-    float cos_v = std::max(1e-3f, dot(wo_w, sp.ns));
-    float tan_v = std::min(50.0f, std::sqrt(std::max(0.0f, 1 - cos_v * cos_v)) / cos_v);
-    float enlarge = (max_height_ + max_depth_) * std::max(tan_v, tan_light_max_);
+    if (!outerSide(h, wo_w)) return false;
+    float enlarge = (max_height_ + max_depth_) * std::max(viewTan(sp, wo_w), tan_light_max_);
     thread_local std::vector<NearGroove> near;
     nearGrooves(sp, enlarge, near);
     if (near.empty()) return false;
@@ -466,9 +492,7 @@ class Tracer {
     if (!grooveFrame(sp, t0, gs.T, gs.B, gs.W)) return false;
     gs.F = sp.p;
     const float mm = sp.mm_per_uv;
-    // Footprint along B (Bosch §4.2.3 (2)), exact for the pixel's parallelogram.
-    gs.fp.w1 = std::fabs(dot(sp.dpdx, gs.B));
-    gs.fp.w2 = std::fabs(dot(sp.dpdy, gs.B));
+    gs.fp = footprintAcross(sp, gs.B);
     // Footprint extent along T, for the ends.
     float half_t = 0.5f * (std::fabs(dot(sp.dpdx, gs.T)) + std::fabs(dot(sp.dpdy, gs.T)));
     thread_local std::vector<Profile> profiles;
@@ -485,8 +509,7 @@ class Tracer {
       float sign = c >= 0 ? 1.0f : -1.0f;
       float k = ng.sc->scaleAt(ng.pp.s);
       if (!(k > 0)) continue;
-      Profile p = ng.sc->profileAt(ng.pp.s);
-      for (auto& q : p.pts) q.x *= mm;
+      Profile p = surfaceProfile(ng, mm);
       double offset = -double(sign) * ng.pp.offset * mm;
       if (std::fabs(offset) > reach_b + p.halfExtent()) continue;
       // An end inside the footprint: the share of the footprint along T that the groove covers.
@@ -509,7 +532,7 @@ class Tracer {
         placed_without.push_back(pl);
     }
     if (placed.empty()) return false;
-    double extent = reach_b + 4 * (max_height_ + max_depth_) * 50.0 + 1.0;
+    double extent = sectionExtent(reach_b);
     gs.section = groove::merge(placed, extent);
     gs.end_share = end_share;
     if (end_share < 1.0f) gs.section_without = groove::merge(placed_without, extent);
@@ -607,11 +630,10 @@ class Tracer {
     return L;
   }
 
-  Rgb shadeGrooves(const GrooveSet& gs, const SurfacePoint& sp, const Material& top, Vec3f wo_w, Rng& rng,
-                   uint64_t& nrays) const {
+  Rgb shadeGrooves(const GrooveSet& gs, const Material& top, Vec3f wo_w, Rng& rng, uint64_t& nrays) const {
     const int nl = st_.groove_light_samples;
-    // One sample per light, shared by all facets (the shadowing inside the grooves is exact per
-    // facet; the rest of the scene is tested once).
+    // The light samples are shared by all facets (the shadowing inside the grooves is exact per
+    // facet; the rest of the scene is tested once per sample).
     thread_local std::vector<LightSample> ls;
     ls.clear();
     Vec3f origin = gs.F + gs.W * (max_height_ + rayEpsilon(gs.F));
@@ -662,27 +684,21 @@ class Tracer {
   // Coverage of each scratch's visible facets in the pixel footprint (for the masks): per scratch,
   // its own section alone seen from the camera, the weight of its non-flat facets.
   void scratchCoverage(const SurfacePoint& sp, const Hit& h, Vec3f wo_w, std::vector<float>& cov) const {
-    if (dot(s_.part->frame(h.prim).ng, wo_w) <= 0) return;
+    if (!outerSide(h, wo_w)) return;
     thread_local std::vector<NearGroove> near;
-    float cos_v = std::max(1e-3f, dot(wo_w, sp.ns));
-    float tan_v = std::min(50.0f, std::sqrt(std::max(0.0f, 1 - cos_v * cos_v)) / cos_v);
-    nearGrooves(sp, (max_height_ + max_depth_) * tan_v, near);
+    nearGrooves(sp, (max_height_ + max_depth_) * viewTan(sp, wo_w), near);
     for (const NearGroove& ng : near) {
       Vec3f T, B, W;
       if (!grooveFrame(sp, ng.pp.tangent, T, B, W)) continue;
       float k = ng.sc->scaleAt(ng.pp.s);
       if (!(k > 0) || ng.pp.beyond > 0) continue;
-      Profile p = ng.sc->profileAt(ng.pp.s);
-      for (auto& q : p.pts) q.x *= sp.mm_per_uv;
+      Profile p = surfaceProfile(ng, sp.mm_per_uv);
       groove::PlacedProfile pl;
       pl.pts = &p.pts;
       pl.layer = &p.layer;
       pl.offset = -double(ng.pp.offset) * sp.mm_per_uv;
-      groove::Footprint fp;
-      fp.w1 = std::fabs(dot(sp.dpdx, B));
-      fp.w2 = std::fabs(dot(sp.dpdy, B));
-      double extent = fp.halfWidth() + std::fabs(pl.offset) + p.halfExtent() + (max_height_ + max_depth_) * 50.0 + 1.0;
-      groove::Section sec = groove::merge({pl}, extent);
+      groove::Footprint fp = footprintAcross(sp, B);
+      groove::Section sec = groove::merge({pl}, sectionExtent(fp.halfWidth() + std::fabs(pl.offset) + p.halfExtent()));
       double lo = pl.offset + p.bMin(), hi = pl.offset + p.bMax();
       float c = 0;
       for (const auto& por : groove::visible(sec, Vec2d(dot(wo_w, B), dot(wo_w, W)), fp)) {

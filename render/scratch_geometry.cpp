@@ -25,6 +25,7 @@ namespace {
 
 struct Affine {
   Vec3d o, u, v, n;  // p = o + u * uv.x + v * uv.y; n the winding normal
+  Vec2f lo, hi;      // the chart's rectangle
 };
 
 // The affine map from the chart to the part, or an error when the part is not flat and affine.
@@ -71,6 +72,8 @@ Affine planarChart(const TriangleMesh& m) {
   if (std::fabs(area_uv - box) > 1e-3 * box)
     throw std::runtime_error("explicit scratch geometry needs a UV chart that fills its rectangle (a part with "
                              "holes or a non-rectangular outline is not supported)");
+  a.lo = lo;
+  a.hi = hi;
   return a;
 }
 
@@ -78,12 +81,8 @@ Affine planarChart(const TriangleMesh& m) {
 
 TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<const Scratch*>& scratches,
                                  const ScratchGeometryOptions& opt, ScratchGeometryStats* stats) {
-  Affine a = planarChart(part);
-  Vec2f lo(1e30f, 1e30f), hi(-1e30f, -1e30f);
-  for (Vec2f t : part.uvs) {
-    lo = {std::min(lo.x, t.x), std::min(lo.y, t.y)};
-    hi = {std::max(hi.x, t.x), std::max(hi.y, t.y)};
-  }
+  const Affine a = planarChart(part);
+  const Vec2f lo = a.lo, hi = a.hi;
   double cell = opt.cell_mm;
   if (!(cell > 0)) {
     double narrowest = 1e30;

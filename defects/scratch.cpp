@@ -76,6 +76,18 @@ ScratchPath ScratchPath::polyline(std::vector<Vec2d> pts) {
   return p;
 }
 
+ScratchPath ScratchPath::sub(double s0, double s1) const {
+  const double L = length();
+  s0 = std::clamp(s0, 0.0, L);
+  s1 = std::clamp(s1, 0.0, L);
+  if (!(s1 > s0)) throw std::invalid_argument("ScratchPath::sub: empty interval");
+  std::vector<Vec2d> out{pointAt(s0)};
+  for (size_t i = 0; i < pts_.size(); ++i)
+    if (arc_[i] > s0 && arc_[i] < s1) out.push_back(pts_[i]);
+  out.push_back(pointAt(s1));
+  return polyline(std::move(out));
+}
+
 ScratchPath ScratchPath::bezier(const std::vector<Vec2d>& c, double tol) {
   if (c.size() < 4 || (c.size() - 1) % 3 != 0)
     throw std::invalid_argument("ScratchPath::bezier: needs 3k+1 control points (k >= 1)");
@@ -715,6 +727,36 @@ Profile Scratch::profileAt(double s) const {
   return ref_.scaled(scaleAt(float(s))).withLayers(layers_);
 }
 
+std::vector<std::pair<double, double>> Scratch::exposedRuns() const {
+  std::vector<std::pair<double, double>> runs;
+  std::vector<double> itf = layers_.interfaces();
+  const double coat = itf.empty() ? 0.0 : itf.back();
+  const double d0 = ref_.depth();
+  if (!(d0 > 0)) return runs;
+  // depth(s) - coat at table sample i; a run starts and ends where it changes sign.
+  auto excess = [&](size_t i) { return double(scale_[i]) * d0 - coat; };
+  const double L = path_.length();
+  bool in = false;
+  double start = 0;
+  for (size_t i = 0; i < scale_.size(); ++i) {
+    double s = std::min(L, double(i) * double(ds_));
+    bool now = excess(i) > 0;
+    if (now != in) {
+      // Crossing between samples i-1 and i (or at the start).
+      double x = s;
+      if (i > 0) {
+        double e0 = excess(i - 1), e1 = excess(i);
+        x = std::min(L, (double(i - 1) + e0 / (e0 - e1)) * double(ds_));
+      }
+      if (now) start = x;
+      else if (x > start) runs.push_back({start, x});
+      in = now;
+    }
+  }
+  if (in && L > start) runs.push_back({start, L});
+  return runs;
+}
+
 bool Scratch::inMask(Vec2f p) const {
   if (!(ref_.width() > 0) || !(max_scale_ > 0)) return false;
   PathPoint q = path_.closest(p, float(ref_.halfExtent()) * max_scale_);
@@ -765,6 +807,9 @@ nlohmann::json Scratch::attributes() const {
   j["peak_height_mm"] = ref_.peakHeight() * max_scale_;
   j["facets"] = ref_.facets();
   j["deepest_layer"] = layers_.layers[size_t(layers_.layerAtDepth(ref_.depth() * max_scale_))].name;
+  double bared = 0;
+  for (const auto& r : exposedRuns()) bared += r.second - r.first;
+  j["substrate_exposed_mm"] = bared;
   j["fade_length_mm"] = pert_.fade_length_mm;
   if (pert_.noise_amplitude > 0) {
     j["noise_amplitude"] = pert_.noise_amplitude;

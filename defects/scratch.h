@@ -64,6 +64,9 @@ class ScratchPath {
   const std::vector<double>& arcLengths() const { return arc_; }  // cumulative, arc_[0] = 0
   Vec2d pointAt(double s) const;    // s clamped to [0, length]
   Vec2d tangentAt(double s) const;  // unit tangent of the segment containing s
+  // The part of the path between arc positions s0 < s1 (clamped to [0, length]) as a new path.
+  // Throws std::invalid_argument when the clamped interval is empty.
+  ScratchPath sub(double s0, double s1) const;
   Box2 bounds() const { return box_; }
 
   // Closest point of the path to p. With a finite max_dist the path's segment grid is used
@@ -272,6 +275,12 @@ class Scratch final : public Defect {
   // The cross-section at s: reference scaled by scaleAt(s), facets split and assigned layers.
   Profile profileAt(double s) const;
   bool isProcess() const { return is_process_; }
+  // Where the groove cuts through the whole coating and bares the substrate (the stack's last
+  // layer, e.g. the steel under clear coat, base coat and primer): the arc intervals [s0, s1] (mm)
+  // on which depth(s) = scale(s) * reference depth exceeds the coating's total thickness. Ends are
+  // placed by linear interpolation of the scale table. A one-layer stack (bare metal) is bared
+  // wherever the groove has any depth. Rust that starts at scratches grows from these runs.
+  std::vector<std::pair<double, double>> exposedRuns() const;
   const ProcessCrossSection& process() const { return proc_cs_; }
 
  private:

@@ -36,33 +36,56 @@ Rust::Rust(const RustParams& p)
   color_fbm_.base_frequency = 6.0f / p.radius_mm;
   detail_fbm_.octaves = 4;
   detail_fbm_.base_frequency = 1.0f;  // ~1 mm grains of rust
+  if (!p.origin_path.empty()) path_ = ScratchPath::polyline(p.origin_path);
+}
+
+float Rust::extent() const { return p_.radius_mm * (g_ + p_.roughness) + p_.blister_width_mm; }
+
+// Distance from p to the origin (point or path) and the unit direction away from it.
+float Rust::originDistance(Vec2f p, Vec2f* dir) const {
+  Vec2f d;
+  if (path_) {
+    // Farther than extent() nothing is rusty or blistered whatever the noise (phi >= g + ring
+    // there), so the query stops at that distance and reports it.
+    float ext = extent();
+    PathPoint q = path_->closest(p, ext);
+    if (!q.found) {
+      if (dir) *dir = Vec2f(0, 0);
+      return ext;
+    }
+    d = p - q.point;
+  } else {
+    d = p - p_.origin_uv;
+  }
+  float r = std::sqrt(d.x * d.x + d.y * d.y);
+  if (dir) *dir = r > 0 ? d / r : Vec2f(0, 0);
+  return r;
 }
 
 float Rust::phi(Vec2f p, float footprint, Vec2f* grad) const {
-  Vec2f d = p - p_.origin_uv;
-  float r = std::sqrt(d.x * d.x + d.y * d.y);
+  Vec2f dir;
+  float r = originDistance(p, grad ? &dir : nullptr);
   Vec2f gn;
   float n = fbm2(front_noise_, p, front_fbm_, footprint, grad ? &gn : nullptr);
-  if (grad) {
-    Vec2f gr = r > 0 ? d / (r * p_.radius_mm) : Vec2f(0, 0);
-    *grad = gr + gn * p_.roughness;
-  }
+  if (grad) *grad = dir * (1.0f / p_.radius_mm) + gn * p_.roughness;
   return r / p_.radius_mm + p_.roughness * n;
 }
 
 Box2 Rust::support() const {
-  float ext = p_.radius_mm * (g_ + p_.roughness) + p_.blister_width_mm;
+  float ext = extent();
+  Box2 o = path_ ? path_->bounds() : Box2{p_.origin_uv, p_.origin_uv};
   Box2 b;
-  b.lo = p_.origin_uv - Vec2f(ext, ext);
-  b.hi = p_.origin_uv + Vec2f(ext, ext);
+  b.lo = o.lo - Vec2f(ext, ext);
+  b.hi = o.hi + Vec2f(ext, ext);
   return b;
 }
 
 Box2 Rust::maskBox() const {
   float ext = p_.radius_mm * (g_ + p_.roughness);
+  Box2 o = path_ ? path_->bounds() : Box2{p_.origin_uv, p_.origin_uv};
   Box2 b;
-  b.lo = p_.origin_uv - Vec2f(ext, ext);
-  b.hi = p_.origin_uv + Vec2f(ext, ext);
+  b.lo = o.lo - Vec2f(ext, ext);
+  b.hi = o.hi + Vec2f(ext, ext);
   return b;
 }
 
@@ -111,7 +134,7 @@ void Rust::shade(const DefectQuery& q, DefectShading& s) const {
 }
 
 nlohmann::json Rust::attributes() const {
-  return {{"kind", "rust"},
+  nlohmann::json j = {{"kind", "rust"},
           {"origin", p_.origin},
           {"origin_uv_mm", {p_.origin_uv.x, p_.origin_uv.y}},
           {"radius_mm", p_.radius_mm},
@@ -124,6 +147,11 @@ nlohmann::json Rust::attributes() const {
           {"fresh_color", rgbJson(p_.fresh)},
           {"old_color", rgbJson(p_.old)},
           {"seed", p_.seed}};
+  if (path_) {
+    j["origin_scratch"] = p_.origin_scratch;
+    j["origin_length_mm"] = path_->length();
+  }
+  return j;
 }
 
 // ---------------------------------------------------------------------------------------------

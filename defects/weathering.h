@@ -6,16 +6,21 @@
 // seed the covered region only grows as the part ages (the regions are nested).
 #pragma once
 #include <memory>
+#include <optional>
+#include <vector>
 
 #include "defects/defect.h"
 #include "defects/noise.h"
+#include "defects/scratch.h"
 
 namespace dg {
 
 // ---------------------------------------------------------------------------------------------
-// Rust: a spot that starts at a pit (or at the part's edge) and spreads with age.
+// Rust: a spot that starts at a pit (or at the part's edge), or a band that starts along the
+// stretch of a scratch that bares the steel, and spreads with age.
 //
-//   phi(p) = |p - c| / R + roughness * fbm(p)        (fbm in [-1, 1], wavelength ~ R / 2)
+//   phi(p) = d(p) / R + roughness * fbm(p)           (fbm in [-1, 1], wavelength ~ R / 2)
+//   d(p)   = |p - c| for a point origin c, the distance to the origin path for a scratch
 //   g(age) = 1 - exp(-age / growth_years)             (front position, increasing in age)
 //   rusted  <=>  phi(p) < g(age)
 // The local rust age s = (g - phi) / g in (0, 1] is 1 at the origin (oldest, deepest, darkest) and
@@ -34,7 +39,11 @@ struct RustParams {
   float sigma_rad = 0.5f;     // Oren-Nayar roughness of rust
   Rgb fresh{0.35f, 0.12f, 0.04f}, old{0.06f, 0.03f, 0.015f}, accent{0.45f, 0.28f, 0.08f};  // digest §4.4
   uint64_t seed = 1;
-  const char* origin = "pit";  // "pit" or "edge" (documentation only; the caller places origin_uv)
+  const char* origin = "pit";  // "pit", "edge" or "scratch" (the caller places the origin)
+  // With origin "scratch": the bared stretch of the scratch's path (UV mm, at least two points);
+  // the rust then grows from this line instead of from origin_uv. Empty for a point origin.
+  std::vector<Vec2d> origin_path;
+  int origin_scratch = 0;      // the scratch's instance id (attributes only)
 };
 
 class Rust final : public Defect {
@@ -52,8 +61,11 @@ class Rust final : public Defect {
   float front() const { return g_; }
 
  private:
+  float originDistance(Vec2f p, Vec2f* dir) const;
+  float extent() const;  // farthest distance from the origin that can be rusty or blistered
   RustParams p_;
   float g_;
+  std::optional<ScratchPath> path_;
   SimplexNoise front_noise_, color_noise_, detail_noise_;
   FbmParams front_fbm_, color_fbm_, detail_fbm_;
 };

@@ -316,9 +316,13 @@ Field buildSchema() {
                              "is its own instance of class dent.";
   def.variants["rust"] = {
       integer("count", "", 1, 0, 1000, "Number of rust spots in the group.", true),
-      enumeration("origin", {"pit", "edge"}, "pit",
-                  "Where the spot starts: a pit in the surface, or the part's edge (the centre is moved "
-                  "to the nearest edge of the UV chart).", true),
+      enumeration("origin", {"pit", "edge", "scratch"}, "pit",
+                  "Where the rust starts: a pit in the surface, the part's edge (the centre is moved "
+                  "to the nearest edge of the UV chart), or a scratch that cuts through the paint: the "
+                  "rust then grows along the stretch of the scratch that bares the steel (chosen at "
+                  "random, by length, among the sample's scratches; none is placed when no scratch "
+                  "reaches the steel, and the sample's metadata says so). `scratch` needs a scratch "
+                  "group in `defects`.", true),
       num("radius_mm", "mm", 20, 1, 1000, "Extent of the fully grown spot."),
       num("age_years", "years", 2, 0, 100, "Age; for one seed the rusted area only grows with it."),
       num("growth_years", "years", 3, 0.01, 100, "Time constant of the front: g = 1 - exp(-age/growth).",
@@ -800,7 +804,16 @@ void crossChecks(const Value& root, const Parser& p) {
       p.failAt(l["inner_radius_mm"].line, l["inner_radius_mm"].column,
                "'" + l.path + ".inner_radius_mm' must be smaller than radius_mm");
   }
+  bool has_scratches = false;
+  for (const Value& d : root["defects"].items) has_scratches = has_scratches || d["type"].str() == "scratch";
   for (const Value& d : root["defects"].items) {
+    if (d["type"].str() == "rust" && !has_scratches) {
+      const Value& o = d["origin"];
+      bool may_scratch = o.dist.kind == Dist::Kind::Const ? o.str() == "scratch" : false;
+      for (const auto& ch : o.dist.choices) may_scratch = may_scratch || ch == "scratch";
+      if (may_scratch)
+        p.failAt(o.line, o.column, "'" + o.path + "': origin 'scratch' needs a group of type scratch in 'defects'");
+    }
     const Value& r = d["region"];
     if (!(r.items[0].num() < r.items[2].num() && r.items[1].num() < r.items[3].num()))
       p.failAt(r.line, r.column, "'" + r.path + "': expected [u0, v0, u1, v1] with u0 < u1 and v0 < v1");

@@ -343,6 +343,12 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
     s.defects->push_back(std::move(defect));
   };
   const std::string scratch_mode = r["scratches"].str();
+  struct RustAtScratch {
+    size_t group;
+    int index;
+    RustParams rp;
+  };
+  std::vector<RustAtScratch> rust_at_scratch;
   for (size_t g = 0; g < groups.items.size(); ++g) {
     const Value& d = groups.items[g];
     int count = int(sampleNumber(d["count"], rng, rec));
@@ -500,7 +506,9 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
       } else if (type == "rust") {
         RustParams rp;
         std::string origin = sampleValue(d["origin"], rng, local).get<std::string>();
-        if (origin == "edge") {
+        if (origin == "scratch") {
+          rp.origin = "scratch";  // the config check made sure the config has scratches
+        } else if (origin == "edge") {
           // Move the centre to the nearest edge of the UV chart.
           float dl = center.x - uvb.lo.x, dr = uvb.hi.x - center.x, db = center.y - uvb.lo.y, dt = uvb.hi.y - center.y;
           float m = std::min(std::min(dl, dr), std::min(db, dt));
@@ -522,7 +530,12 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
         rp.fresh = sampleRgb(d["fresh_color"], rng, local);
         rp.old = sampleRgb(d["old_color"], rng, local);
         rp.seed = instance_seed;
-        defect = std::make_unique<Rust>(rp);
+        if (origin == "scratch") {
+          // Placed once every scratch of the sample exists (below).
+          rust_at_scratch.push_back({g, k, rp});
+        } else {
+          defect = std::make_unique<Rust>(rp);
+        }
       } else {
         PatinaParams pp;
         pp.center_uv = center;
@@ -546,6 +559,49 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
       if (!defect) continue;  // hail clusters and scratches added their instances already
       addInstance(std::move(defect), g, json::object());
     }
+  }
+  // Rust that starts at scratches: along a stretch where a scratch cuts through the paint and
+  // bares the steel, picked at random with probability proportional to its length.
+  if (!rust_at_scratch.empty()) {
+    struct Run {
+      const Scratch* sc;
+      double s0, s1;
+    };
+    std::vector<Run> runs;
+    double total = 0;
+    for (auto& d : *s.defects)
+      if (d->cls() == DefectClass::Scratch) {
+        const Scratch* sc = static_cast<const Scratch*>(d.get());
+        for (const auto& r : sc->exposedRuns()) {
+          runs.push_back({sc, r.first, r.second});
+          total += r.second - r.first;
+        }
+      }
+    json skipped = json::array();
+    for (RustAtScratch& ras : rust_at_scratch) {
+      if (runs.empty() || !(total > 0)) {
+        skipped.push_back({{"group", ras.group}, {"index", ras.index},
+                           {"reason", "no scratch in this sample cuts through the paint to the steel"}});
+        continue;
+      }
+      Rng pick(hashKey(ras.rp.seed, 0x7275737473ull));  // the instance seed, salted
+      double x = pick.uniformD() * total;
+      size_t i = 0;
+      for (; i + 1 < runs.size(); ++i) {
+        double len = runs[i].s1 - runs[i].s0;
+        if (x < len) break;
+        x -= len;
+      }
+      const Run& run = runs[i];
+      ScratchPath bare = run.sc->path().sub(run.s0, run.s1);
+      ras.rp.origin_path = bare.points();
+      Vec2d mid = bare.pointAt(0.5 * bare.length());
+      ras.rp.origin_uv = {float(mid.x), float(mid.y)};
+      ras.rp.origin_scratch = run.sc->instanceId();
+      addInstance(std::make_unique<Rust>(ras.rp), ras.group,
+                  {{"origin_run_mm", {run.s0, run.s1}}});
+    }
+    if (!skipped.empty()) meta["rust_not_placed"] = skipped;
   }
   if (s.defects->size() > 65535) throw InputError(c.file, groups.line, groups.column, "more than 65535 defects in one sample");
   // Dents rendered as geometry: this sample gets its own refined and displaced copy of the part

@@ -114,7 +114,10 @@ class Tracer {
   Tracer(const RenderScene& s, const RenderSettings& st)
       : s_(s), st_(st), mesh_(s.part->mesh()), has_defects_(s.defects && !s.defects->empty()) {
     if (has_defects_)
-      for (auto& d : *s.defects) needs_cavity_ |= d->needsCavity();
+      for (auto& d : *s.defects) {
+        needs_cavity_ |= d->needsCavity();
+        has_weathering_ |= d->cls() == DefectClass::Rust || d->cls() == DefectClass::Patina;
+      }
     has_paint_ = s.paint != nullptr && s.material.kind == MaterialKind::CarPaint;
     if (has_defects_)
       for (auto& d : *s.defects)
@@ -296,6 +299,16 @@ class Tracer {
       if (depth == 0 && grooves_ && sp.uv_ok) {
         GrooveSet gs;
         if (gatherGrooves(sp, h, wo_w, gs)) {
+          // Weathering over the groove (rust that grew from a bared scratch) covers its facets
+          // too: with probability `cover` every facet takes the weathered surface.
+          if (has_weathering_) {
+            SurfacePoint spw = sp;
+            DefectShading dw = applyDefects(spw, wo_w, h);
+            if (dw.cover > 0 && rng.uniform() < dw.cover) {
+              m = weathered(m, dw, 0.0f);
+              gs.one_material = true;
+            }
+          }
           L += beta * shadeGrooves(gs, m, wo_w, rng, nrays);
           break;
         }
@@ -400,6 +413,7 @@ class Tracer {
     // crossing grooves only the locally deepest direction is kept.
     float end_share = 1.0f;
     groove::Section section_without;  // the section without the ending grooves (when end_share < 1)
+    bool one_material = false;        // every facet shows the top material (weathered grooves)
   };
 
   // Candidate scratches near a hit: closest points within reach of the footprint.
@@ -573,7 +587,7 @@ class Tracer {
     for (const auto& p : portions) {
       Vec2d n2 = sec.normal(size_t(p.facet));
       Vec3f N = gs.B * float(n2.x) + gs.W * float(n2.y);
-      const Material& m = facetMaterial(sec.layer[size_t(p.facet)], top);
+      const Material& m = facetMaterial(gs, sec.layer[size_t(p.facet)], top);
       Frame fr = Frame::fromNormalTangent(N, gs.T);
       Vec3f wo = fr.toLocal(wo_w);
       if (wo.z <= 0) continue;
@@ -606,7 +620,7 @@ class Tracer {
       if (!(p.weight > 0)) continue;
       Vec2d n2 = sec.normal(size_t(p.facet));
       Vec3f N = gs.B * float(n2.x) + gs.W * float(n2.y);
-      const Material& m = facetMaterial(sec.layer[size_t(p.facet)], top);
+      const Material& m = facetMaterial(gs, sec.layer[size_t(p.facet)], top);
       Frame fr = Frame::fromNormalTangent(N, gs.T);
       Vec3f wo = fr.toLocal(wo_w);
       BsdfSample bs;
@@ -676,8 +690,8 @@ class Tracer {
     return L;
   }
 
-  const Material& facetMaterial(int layer, const Material& top) const {
-    if (layer <= 0 || size_t(layer) >= s_.layer_materials.size()) return top;
+  const Material& facetMaterial(const GrooveSet& gs, int layer, const Material& top) const {
+    if (gs.one_material || layer <= 0 || size_t(layer) >= s_.layer_materials.size()) return top;
     return s_.layer_materials[size_t(layer)];
   }
 
@@ -716,6 +730,7 @@ class Tracer {
   const RenderSettings& st_;
   const TriangleMesh& mesh_;
   bool has_defects_;
+  bool has_weathering_ = false;  // rust or patina: covers that also reach into grooves
   bool needs_cavity_ = false;
   bool has_paint_ = false;
   bool has_scratches_ = false;

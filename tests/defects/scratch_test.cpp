@@ -614,3 +614,64 @@ TEST(ScratchPlacement, GenericScratch) {
   EXPECT_EQ(line.points().size(), 2u);
   EXPECT_DOUBLE_EQ(line.length(), 4.0);
 }
+
+TEST(ScratchPath, SubPathKeepsArcLengthAndPoints) {
+  ScratchPath arc = ScratchPath::arc({0, 0}, 50, 0, 1.5);
+  ScratchPath sub = arc.sub(10, 40);
+  EXPECT_NEAR(sub.length(), 30.0, 1e-9);
+  for (double s : {0.0, 7.5, 15.0, 30.0}) {
+    Vec2d a = sub.pointAt(s), b = arc.pointAt(10 + s);
+    EXPECT_NEAR(a.x, b.x, 1e-9);
+    EXPECT_NEAR(a.y, b.y, 1e-9);
+  }
+  EXPECT_NEAR(arc.sub(-5, 1e9).length(), arc.length(), 1e-9);  // clamped
+  EXPECT_THROW(arc.sub(20, 20), std::invalid_argument);
+}
+
+// Where a scratch bares the substrate: depth(s) = g(s) * d0 against the coating's total
+// thickness, with g the smoothstep fade; the run ends solve 3u^2 - 2u^3 = coat / d0.
+TEST(ScratchDefect, ExposedRunsFollowTheFadeLaw) {
+  ScratchPath path = ScratchPath::polyline({{0, 0}, {100, 0}});
+  Profile pr = Profile::fromPolyline({{-0.1, 0}, {0, -0.1}, {0.1, 0}});
+  ScratchPerturbation pert;
+  pert.fade_length_mm = 20;
+  LayerStack paint;
+  paint.layers = {{"clear_coat", 0.04}, {"base_coat", 0.015}, {"primer", 0.03}, {"steel", 0}};
+  Scratch deep = Scratch::fromProfile(path, pr, pert, paint);
+  // Solve the smoothstep for 0.85 by bisection.
+  double lo = 0, hi = 1;
+  for (int i = 0; i < 60; ++i) {
+    double m = 0.5 * (lo + hi);
+    (3 * m * m - 2 * m * m * m < 0.85 ? lo : hi) = m;
+  }
+  auto runs = deep.exposedRuns();
+  ASSERT_EQ(runs.size(), 1u);
+  EXPECT_NEAR(runs[0].first, 20 * lo, 0.02);
+  EXPECT_NEAR(runs[0].second, 100 - 20 * lo, 0.02);
+  EXPECT_NEAR(deep.attributes()["substrate_exposed_mm"].get<double>(), 100 - 40 * lo, 0.04);
+  // A groove in the clear coat only bares nothing.
+  Scratch shallow = Scratch::fromProfile(path, pr.scaled(0.5), pert, paint);
+  EXPECT_TRUE(shallow.exposedRuns().empty());
+  // Bare metal (one layer) is exposed wherever the groove has depth: all but the end points.
+  Scratch bare = Scratch::fromProfile(path, pr.scaled(0.1), pert);
+  runs = bare.exposedRuns();
+  ASSERT_EQ(runs.size(), 1u);
+  EXPECT_LT(runs[0].first, 0.5);
+  EXPECT_GT(runs[0].second, 99.5);
+  // Random depth variation splits the bared stretch where the depth dips under the coating.
+  ScratchPerturbation wobbly = pert;
+  wobbly.noise_amplitude = 0.3;
+  wobbly.noise_wavelength_mm = 4;
+  wobbly.noise_seed = 3;
+  Scratch w = Scratch::fromProfile(path, pr.scaled(0.9), wobbly, paint);
+  runs = w.exposedRuns();
+  ASSERT_GT(runs.size(), 1u);
+  for (size_t i = 0; i < runs.size(); ++i) {
+    EXPECT_LT(runs[i].first, runs[i].second);
+    if (i > 0) EXPECT_GT(runs[i].first, runs[i - 1].second);
+    // Inside a run the groove is deeper than the coating, just outside it shallower.
+    double mid = 0.5 * (runs[i].first + runs[i].second);
+    EXPECT_GT(w.scaleAt(float(mid)) * 0.09, 0.085 - 1e-6) << "run " << i;
+    EXPECT_LT(w.scaleAt(float(runs[i].first - 0.05)) * 0.09, 0.085 + 1e-3) << "run " << i;
+  }
+}

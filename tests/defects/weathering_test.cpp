@@ -53,7 +53,9 @@ TEST(Rust, CoverageGrowsWithAgeAndTheRegionsAreNested) {
     Rust r(rust(a));
     std::vector<char> in = covered(r);
     size_t n = count(in);
-    if (a == 0) EXPECT_EQ(n, 0u);
+    if (a == 0) {
+      EXPECT_EQ(n, 0u);
+    }
     if (!prev.empty()) {
       EXPECT_GE(n, prev_n) << "age " << a;
       for (size_t i = 0; i < in.size(); ++i) ASSERT_TRUE(!prev[i] || in[i]) << "point left the rust at age " << a;
@@ -138,7 +140,9 @@ TEST(Rust, BlistersLiftThePaintOnlyJustOutsideTheFront) {
       r.shade(q, s);
       bool bumped = s.height_grad.x != 0 || s.height_grad.y != 0;
       bumped_outside += bumped;
-      if (bumped) EXPECT_LT(r.phi(p), r.front() + 3.0f / 30.0f + 1e-5f);
+      if (bumped) {
+        EXPECT_LT(r.phi(p), r.front() + 3.0f / 30.0f + 1e-5f);
+      }
     }
   EXPECT_GT(bumped_outside, 10);
 }
@@ -167,7 +171,9 @@ TEST(Patina, CoverageGrowsWithAgeAndTheRegionsAreNested) {
     Patina pt(patina(a));
     std::vector<char> in = covered(pt);
     size_t n = count(in);
-    if (a == 0) EXPECT_EQ(n, 0u);
+    if (a == 0) {
+      EXPECT_EQ(n, 0u);
+    }
     if (!prev.empty()) {
       EXPECT_GE(n, prev_n);
       for (size_t i = 0; i < in.size(); ++i) ASSERT_TRUE(!prev[i] || in[i]);
@@ -215,4 +221,50 @@ TEST(Patina, ColourFollowsTheAgeBands) {
   Rgb young = meanColor(0.3f), old = meanColor(30.0f);
   EXPECT_GT(young.x, young.y);
   EXPECT_GT(old.y, old.x);
+}
+
+// Rust from a scratch: the front is a band around the bared stretch of the path. Without noise
+// (roughness 0) the label is exactly the points within g R of the stretch.
+TEST(Rust, FromAScratchGrowsAsABandAroundTheBaredStretch) {
+  RustParams p = rust(3);
+  p.roughness = 0;
+  p.origin = "scratch";
+  p.origin_path = {{40, 100}, {100, 100}, {160, 130}};
+  Rust r(p);
+  float reach = r.front() * p.radius_mm;
+  ScratchPath line = ScratchPath::polyline(p.origin_path);
+  int in = 0;
+  for (int y = 0; y < 200; ++y)
+    for (int x = 0; x < 200; ++x) {
+      Vec2f q(float(x) + 0.5f, float(y) + 0.5f);
+      float d = line.closest(q).distance;
+      if (std::fabs(d - reach) < 1e-3f) continue;
+      ASSERT_EQ(r.inMask(q), d < reach) << x << "," << y;
+      if (d < reach) {
+        ++in;
+        ASSERT_TRUE(r.maskBox().contains(q));
+      }
+    }
+  // Area of the band: 2 g R * length + pi (g R)^2 (the two end caps), less a little at the bend.
+  double area = 2 * reach * line.length() + kPi * reach * reach;
+  EXPECT_NEAR(in, area, 0.03 * area);
+  // Oldest on the stretch, fresh at the front.
+  DefectQuery q0, q1;
+  q0.uv = {70, 100};
+  q1.uv = {70, 100 + 0.9f * reach};
+  DefectShading s0, s1;
+  r.shade(q0, s0);
+  r.shade(q1, s1);
+  EXPECT_LT(s0.appearance.albedo.x, s1.appearance.albedo.x);
+  // With the default roughness, growth with age stays monotone and nested.
+  std::vector<char> prev;
+  for (float a : {0.5f, 1.0f, 2.0f, 4.0f, 8.0f}) {
+    RustParams pa = p;
+    pa.roughness = 0.35f;
+    pa.age_years = a;
+    std::vector<char> cur = covered(Rust(pa));
+    for (size_t i = 0; i < cur.size() && !prev.empty(); ++i) ASSERT_TRUE(!prev[i] || cur[i]) << "age " << a;
+    prev = cur;
+  }
+  EXPECT_EQ(r.attributes()["origin"], "scratch");
 }

@@ -205,12 +205,14 @@ class BadInput(unittest.TestCase):
             ("out_of_range", base.replace("elevation_deg: 15", "elevation_deg: 95"), ["bad.yaml:14:20", "out of range"]),
             ("missing_file", base.replace("type: plate", "type: mesh\n  path: nowhere.obj").replace(
                 "  width_mm: 300\n  height_mm: 200\n", ""), ["file not found", "nowhere.obj"]),
+            ("rust_without_scratch", base + "  - type: rust\n    origin: {choice: [pit, scratch]}\n",
+             ["bad.yaml:33:13", "origin 'scratch' needs a group of type scratch"]),
         ]
         for name, text, frags in cases:
             with self.subTest(name):
                 self.expect_error(["generate", self.config(d, text), "--out", out], *frags, out=out)
                 self.expect_error(["validate", self.config(d, text)], *frags,
-                                  lines=1 if name == "malformed" else 2)
+                                  lines=1 if name in ("malformed", "rust_without_scratch") else 2)
         self.expect_error(["generate", os.path.join(d, "absent.yaml"), "--out", out], "absent.yaml", out=out)
         # validate reports every error at once, then a count.
         many = base.replace("max_bounces", "max_bounce").replace("spp: 2", "spp: two")

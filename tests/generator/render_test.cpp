@@ -149,3 +149,71 @@ TEST(Render, ShallowDentsStayBumpsUnderAuto) {
   EXPECT_FALSE(s.meta.contains("displacement"));
   EXPECT_EQ(s.scene.part.get(), ds.part.get());  // the shared BVH is reused
 }
+
+namespace {
+
+// A painted plate (blue) with a 100 mm horizontal scratch through its centre, a shallow scratch
+// below it, and rust that starts at scratches. 2 px per mm head-on.
+std::string rustAtScratchConfig(double deep_force_kg, int res) {
+  std::string y = plateConfig("", res, 4);
+  y.replace(y.find("  type: metal\n  metal: steel\n  roughness: 0.3\n"), 45,
+            "  type: car_paint\n  base_color: [0.05, 0.1, 0.6]\n  flake_amount: 0\n");
+  return y +
+         "  scratches: groove\n"
+         "defects:\n"
+         "  - type: scratch\n    count: 1\n    length_mm: 100\n    orientation_deg: 0\n    curvature_per_mm: 0\n"
+         "    force_kg: " + std::to_string(deep_force_kg) + "\n    hardness_hv: 20\n    fade_mm: 10\n"
+         "    perturbation: 0\n    center: [0.5, 0.5]\n"
+         "  - type: scratch\n    count: 1\n    length_mm: 60\n    orientation_deg: 0\n    curvature_per_mm: 0\n"
+         "    force_kg: 0.5\n    hardness_hv: 20\n    perturbation: 0\n    center: [0.5, 0.3]\n"
+         "  - type: rust\n    count: 1\n    origin: scratch\n    radius_mm: 10\n    age_years: 3\n"
+         "    growth_years: 3\n    roughness: 0\n    blister_width_mm: 1\n    center: [0.5, 0.5]\n";
+}
+
+}  // namespace
+
+// Issue 4: rust starts at scratches that cut through the paint. Only the deep scratch bares the
+// steel, so the rust grows along its bared stretch: a band of half-width g R, labelled as such,
+// and the groove inside it is rendered as rust too (not as paint or steel).
+TEST(Render, RustStartsWhereAScratchBaresTheSteel) {
+  const int res = 256;
+  Sample s;
+  RenderFrame f = renderConfig(rustAtScratchConfig(10, res), true, true, &s);
+  ASSERT_EQ(s.instances.size(), 3u);
+  const InstanceInfo& rust = s.instances[2];
+  ASSERT_EQ(rust.cls, DefectClass::Rust);
+  EXPECT_EQ(rust.attributes["origin_scratch"], 1);  // the deep one, never the shallow one
+  const auto& deep = static_cast<const Scratch&>(*(*s.defects)[0]);
+  auto runs = deep.exposedRuns();
+  ASSERT_EQ(runs.size(), 1u);
+  double bared = runs[0].second - runs[0].first;
+  EXPECT_GT(bared, 80.0);
+  EXPECT_LT(bared, 100.0);
+  // Labelled rust pixels: the band's area (2 g R L + pi (g R)^2) at 4 px per mm^2.
+  double gR = (1 - std::exp(-1.0)) * 10.0;
+  double expected = 4.0 * (2 * gR * bared + kPi * gR * gR);
+  int n = 0;
+  for (int y = 0; y < res; ++y)
+    for (int x = 0; x < res; ++x) n += f.dominant(x, y) == 3;
+  EXPECT_NEAR(n, expected, 0.04 * expected);
+  // The groove pixels on the scratch line (rows 127 and 128; the path runs through the image's
+  // centre) inside the band are rust-coloured (red over blue), not a line of paint or steel.
+  int rusty = 0, checked = 0;
+  for (int x = 48; x <= 208; ++x)
+    for (int y = 127; y <= 128; ++y) {
+      ++checked;
+      rusty += f.dominant(x, y) == 3 && f.rgb(x, y, 0) > 2 * f.rgb(x, y, 2);
+    }
+  EXPECT_EQ(rusty, checked);
+  // A lighter force bares nothing: no rust is placed, the metadata says so, and none of the same
+  // pixels is rust-coloured (they show the paint and the groove's glints).
+  Sample s2;
+  RenderFrame g = renderConfig(rustAtScratchConfig(1.0, res), true, true, &s2);
+  ASSERT_EQ(s2.instances.size(), 2u);
+  ASSERT_TRUE(s2.meta.contains("rust_not_placed"));
+  EXPECT_EQ(s2.meta["rust_not_placed"].size(), 1u);
+  int red = 0;
+  for (int x = 48; x <= 208; ++x)
+    for (int y = 127; y <= 128; ++y) red += g.rgb(x, y, 0) > 2 * g.rgb(x, y, 2);
+  EXPECT_EQ(red, 0);
+}

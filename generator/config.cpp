@@ -256,6 +256,10 @@ Field buildSchema() {
       vec("resolution", 2, "px", {512, 512}, 8, 16384, "[width, height].", false, FieldType::Integer),
       integer("spp", "samples/pixel", 16, 1, 65536, "Path samples per pixel."),
       integer("max_bounces", "", 4, 1, 64, "Maximum path length in surface bounces."),
+      integer("noise_seed", "", 0, 0, 2147483647,
+              "Seed of the pixel sampling only: the same scene (every placement and sampled value comes "
+              "from `seed`) rendered with independent noise, e.g. for a converged reference or noisy/clean "
+              "pairs. 0 = derived from `seed`."),
       num("exposure_stops", "EV", 0, -20, 20, "Exposure applied before the sRGB curve (PNG only)."),
       enumeration("png", {"8", "16", "none"}, "8", "PNG bit depth, or none."),
       flag("exr", false, "Write images/NNNNNN.exr: linear RGB plus the requested AOVs as layers."),

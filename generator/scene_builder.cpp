@@ -118,7 +118,8 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
   int W = int(r["resolution"].items[0].num()), H = int(r["resolution"].items[1].num());
   s.settings.spp = int(r["spp"].num());
   s.settings.max_bounces = int(r["max_bounces"].num());
-  s.settings.seed = seed;
+  const uint64_t noise_seed = uint64_t(r["noise_seed"].num());
+  s.settings.seed = noise_seed == 0 ? seed : hashKey(seed, 0x6e6f697365ull, noise_seed);
   s.settings.sample_index = index;
   s.settings.want_rgb = r["png"].str() != "none" || r["exr"].flag();
   s.settings.want_depth = r["depth"].flag() && r["exr"].flag();

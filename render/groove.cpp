@@ -453,6 +453,62 @@ double litFraction(const Section& s, const Portion& p, const Footprint& fp, Vec2
   return total > 0 ? clamp01(on / total) : 0.0;
 }
 
+Shadowing::Shadowing(const Section& s, Vec2d l_bw) : s_(&s), l_(l_bw) {
+  if (!(l_bw.y > 0)) {
+    from_ = 2;
+    return;
+  }
+  from_ = l_bw.x > 0 ? 1 : (l_bw.x < 0 ? -1 : 0);
+  if (from_ == 0) return;
+  const size_t n = s.pts.size();
+  const double r = l_bw.x / l_bw.y;
+  x_.resize(n);
+  for (size_t i = 0; i < n; ++i) x_[i] = s.pts[i].x - s.pts[i].y * r;
+  const size_t nf = s.facets();
+  bound_.assign(nf, 0.0);
+  if (from_ > 0) {
+    double m = kInf;
+    for (size_t k = nf; k-- > 0;) {
+      m = std::min(m, x_[k + 1]);
+      bound_[k] = m;
+    }
+  } else {
+    double m = -kInf;
+    for (size_t k = 0; k < nf; ++k) {
+      m = std::max(m, x_[k]);
+      bound_[k] = m;
+    }
+  }
+}
+
+double Shadowing::litFraction(const Portion& p, const Footprint& fp) const {
+  const Section& s = *s_;
+  if (!validPortion(s, p) || !(p.weight > 0)) return 0;
+  const size_t k = size_t(p.facet);
+  if (dot2(l_, s.normal(k)) <= 0) return 0;  // facet faces away from the light
+  if (from_ == 2) return l_.y == 0 ? groove::litFraction(s, p, fp, l_) : 0.0;  // grazing: exact path
+  if (from_ == 0) return 1.0;  // straight up: nothing of a height field is above a point
+  const double xa = x_[k], dx = x_[k + 1] - x_[k];
+  // Facing the light makes the projection increase along the facet; a degenerate facet takes the
+  // exact path.
+  if (!(dx > 0)) return groove::litFraction(s, p, fp, l_);
+  const double tb = (bound_[k] - xa) / dx;  // where the facet's projection meets the bound
+  double la = p.t0, lb = p.t1;              // the lit parameter range
+  if (from_ > 0)
+    lb = std::min(lb, tb);
+  else
+    la = std::max(la, tb);
+  if (!(p.t1 > p.t0)) return la <= p.t0 && p.t0 <= lb ? 1.0 : 0.0;
+  if (!(lb > la)) return 0.0;
+  auto w = [&](double ta, double tc) {
+    const double xs = p.xAt(ta), xe = p.xAt(tc);
+    return fp.weight(std::min(xs, xe), std::max(xs, xe));
+  };
+  const double total = w(p.t0, p.t1);
+  if (!(total > 0)) return clamp01((lb - la) / (p.t1 - p.t0));
+  return clamp01(w(la, lb) / total);
+}
+
 // ------------------------------------------------------------------------------------------------
 // Specular scattering between facets (Bosch 2007 §4.3)
 // ------------------------------------------------------------------------------------------------

@@ -12,6 +12,9 @@ namespace dg {
 
 namespace {
 
+// The largest float below 1: keeps stratified samples inside [0, 1).
+constexpr float kOneMinusEps = 0x1.fffffep-1f;
+
 constexpr int kTile = 32;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
@@ -251,9 +254,10 @@ class Tracer {
 
   // The path from `ray` on, with throughput beta and the previous vertex's BSDF pdf (for MIS on
   // emitters the ray hits). `depth0` is the number of surface bounces before this ray.
-  // `prev_nl` is the number of light samples the previous vertex took per light (MIS counts).
+  // `prev_nl` is the number of light samples the previous vertex took per light (MIS counts; the
+  // expected number where they were a random subset).
   Rgb continuePath(DiffRay ray, Rgb beta, float prev_pdf, bool prev_specular, Vec3f prev_p, int depth0, Rng& rng,
-                   uint64_t& nrays, int prev_nl) const {
+                   uint64_t& nrays, float prev_nl) const {
     Rgb L(0.0f);
     RTCScene scene = s_.part->scene();
     for (int depth = depth0;; ++depth) {
@@ -372,7 +376,7 @@ class Tracer {
       if (!isFinite(beta) || maxComponent(beta) <= 0) break;
       prev_pdf = bs.pdf;
       prev_specular = false;
-      prev_nl = nl;
+      prev_nl = float(nl);
       prev_p = origin;
       // Auxiliary rays follow the mirror transfer about the shading normal (the surface's
       // curvature is neglected); after a rough bounce this underestimates the footprint.
@@ -559,6 +563,7 @@ class Tracer {
     Rgb Le;        // radiance
     float pdf;     // solid angle
     bool visible;  // not occluded by the rest of the scene (tested once, from above the grooves)
+    int k;         // its index among the light's stratified samples
   };
 
   // Reflected radiance of the footprint over a section (direct light on every visible facet
@@ -567,18 +572,31 @@ class Tracer {
                    const std::vector<LightSample>& ls, Rng& rng, uint64_t& nrays) const {
     Vec2d e_bw(dot(wo_w, gs.B), dot(wo_w, gs.W));
     std::vector<groove::Portion> portions = groove::visible(sec, e_bw, gs.fp);
-    return shadeLevel(gs, sec, top, portions, wo_w, Rgb(1.0f), 0, ls, rng, nrays);
+    // The section's shadowing per light sample, shared by every portion at every level.
+    std::vector<groove::Shadowing> shadow;
+    shadow.reserve(ls.size());
+    for (const LightSample& l : ls) shadow.emplace_back(sec, Vec2d(dot(l.wl, gs.B), dot(l.wl, gs.W)));
+    return shadeLevel(gs, sec, top, portions, wo_w, Rgb(1.0f), 0, ls, shadow, rng, nrays);
   }
 
   // One level of the recursion: `portions` carry absolute footprint weights, seen from direction
   // wo_w, with throughput beta per unit weight.
   Rgb shadeLevel(const GrooveSet& gs, const groove::Section& sec, const Material& top,
                  const std::vector<groove::Portion>& portions, Vec3f wo_w, Rgb beta, int level,
-                 const std::vector<LightSample>& ls, Rng& rng, uint64_t& nrays) const {
+                 const std::vector<LightSample>& ls, const std::vector<groove::Shadowing>& shadow, Rng& rng,
+                 uint64_t& nrays) const {
     const int nl = st_.groove_light_samples;
     // Directions sampled from the footprint at the first level (stratified over the portions);
     // deeper levels follow one.
     const int nb = level == 0 ? st_.groove_bsdf_samples : 1;
+    // Deeper levels are reached by many first-level directions, so each takes one of nq subsets
+    // of every light's samples: a diagonal of the nq x nq strata ((column + row) mod nq), chosen at
+    // random. Every sample is used with probability 1/nq, so the estimate stays unbiased with
+    // nl / nq samples per light (also the MIS count).
+    const int nq = strataPerAxis(nl);
+    const int nsub = level == 0 ? 1 : nq;
+    const int off = nsub > 1 ? std::min(nsub - 1, int(rng.uniform() * float(nsub))) : 0;
+    const float nl_eff = float(nl) / float(nsub);
     Rgb L(0.0f);
     double wsum = 0;
     for (const auto& p : portions) wsum += p.weight;
@@ -591,19 +609,31 @@ class Tracer {
       Frame fr = Frame::fromNormalTangent(N, gs.T);
       Vec3f wo = fr.toLocal(wo_w);
       if (wo.z <= 0) continue;
-      for (const LightSample& l : ls) {
-        if (!l.visible) continue;
+      for (size_t li = 0; li < ls.size(); ++li) {
+        const LightSample& l = ls[li];
+        if (!l.visible || (nsub > 1 && (l.k % nq + l.k / nq) % nsub != off)) continue;
         Vec3f wi = fr.toLocal(l.wl);
         if (wi.z <= 0) continue;
-        double lit = groove::litFraction(sec, p, gs.fp, Vec2d(dot(l.wl, gs.B), dot(l.wl, gs.W)));
+        double lit = shadow[li].litFraction(p, gs.fp);
         if (!(lit > 0)) continue;
         Rgb f = evalBsdf(m, wo, wi);
-        float w = powerHeuristic(nl * l.pdf, nb * pdfBsdf(m, wo, wi));
-        L += beta * f * l.Le * float(p.weight * lit * wi.z * w / (nl * l.pdf));
+        float w = powerHeuristic(nl_eff * l.pdf, nb * pdfBsdf(m, wo, wi));
+        L += beta * f * l.Le * float(p.weight * lit * wi.z * w / (nl_eff * l.pdf));
       }
     }
-    if (level >= st_.max_groove_bounces) return L;
+    // At the last level the BSDF directions are still sampled (they carry their MIS share of the
+    // direct light through the escaped rays), but the groove is not entered again.
+    const bool last = level >= std::min(st_.max_groove_bounces, st_.max_bounces - 1);
     Vec3f origin = gs.F + gs.W * (max_height_ + rayEpsilon(gs.F));
+    // Latin-hypercube strata for the portion choice, the lobe choice and the direction: each of
+    // the four dimensions is stratified into nb intervals, paired by independent permutations.
+    // (A local buffer: the recursion below re-enters this function.)
+    std::vector<int> perm(size_t(3 * nb));
+    for (int d = 0; d < 3; ++d) {
+      int* p = &perm[size_t(d * nb)];
+      for (int i = 0; i < nb; ++i) p[i] = i;
+      for (int i = nb - 1; i > 0; --i) std::swap(p[i], p[int(rng.uniform() * float(i + 1)) % (i + 1)]);
+    }
     for (int j = 0; j < nb; ++j) {
       // A portion chosen by weight, a BSDF direction from it, then the portions that direction
       // meets inside the groove (next level) and the share that escapes (an ordinary ray).
@@ -624,8 +654,10 @@ class Tracer {
       Frame fr = Frame::fromNormalTangent(N, gs.T);
       Vec3f wo = fr.toLocal(wo_w);
       BsdfSample bs;
-      float ul = rng.uniform();
-      Vec2f ud{rng.uniform(), rng.uniform()};
+      const float inv = 1.0f / float(nb);
+      float ul = std::min((float(perm[size_t(j)]) + rng.uniform()) * inv, kOneMinusEps);
+      Vec2f ud{std::min((float(perm[size_t(nb + j)]) + rng.uniform()) * inv, kOneMinusEps),
+               std::min((float(perm[size_t(2 * nb + j)]) + rng.uniform()) * inv, kOneMinusEps)};
       if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) continue;
       Vec3f d = fr.toWorld(bs.wi);
       Rgb ratio = bs.f * (bs.wi.z / bs.pdf);
@@ -637,9 +669,9 @@ class Tracer {
         r.o = origin;
         r.d = d;
         r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
-        L += continuePath(r, beta_next * float(sc.escaped), nb * bs.pdf, false, origin, 1 + level, rng, nrays, nl);
+        L += continuePath(r, beta_next * float(sc.escaped), nb * bs.pdf, false, origin, 1 + level, rng, nrays, nl_eff);
       }
-      if (!sc.hits.empty()) L += shadeLevel(gs, sec, top, sc.hits, -d, beta_next, level + 1, ls, rng, nrays);
+      if (!last && !sc.hits.empty()) L += shadeLevel(gs, sec, top, sc.hits, -d, beta_next, level + 1, ls, shadow, rng, nrays);
     }
     return L;
   }
@@ -668,7 +700,7 @@ class Tracer {
         if (!(pl > 0)) continue;
         ++nrays;
         bool vis = !occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f));
-        ls.push_back({wl, al.radiance, pl, vis});
+        ls.push_back({wl, al.radiance, pl, vis, k});
       }
     if (s_.lights.env)
       for (int k = 0; k < nl; ++k) {
@@ -679,7 +711,7 @@ class Tracer {
         if (pe > 0 && maxComponent(Le) > 0) {
           ++nrays;
           bool vis = !occluded(scene, origin, wl, 0.0f, kInf);
-          ls.push_back({wl, Le, pe, vis});
+          ls.push_back({wl, Le, pe, vis, k});
         }
       }
     Rgb L = shadeSection(gs, gs.section, top, wo_w, ls, rng, nrays);

@@ -50,12 +50,17 @@ struct RenderSettings {
   bool want_normals = false;   // world shading normal (after bump) of the pixel-centre hit
   bool want_coverage = false;  // per-pixel dominant defect instance and its coverage
   int coverage_grid = 4;       // the pixel footprint is sampled on a grid of n x n points
-  int max_groove_bounces = 3;  // inter-reflections followed inside a groove (Bosch §4.3)
+  // Inter-reflections followed inside a groove (Bosch §4.3), at most max_bounces - 1.
+  int max_groove_bounces = 3;
   // Light samples per light at a groove footprint (stratified over the light), and at every other
   // camera hit when groove shading is on: the footprint is integrated exactly, so the light's
   // extent is what is left to sample.
   int groove_light_samples = 16;
-  int groove_bsdf_samples = 8;  // directions sampled per camera sample at a groove footprint
+  // Directions sampled per camera sample at a groove footprint (Latin-hypercube stratified over
+  // the visible portions and the BSDF). They carry the inter-reflection, whose noise under a
+  // low-angle bar light was the groove renderer's largest error: 8 gave 0.60% of pixels >= 10
+  // against the converged reference on the parallel/bar scene at 4 spp, 32 gave 0.08%.
+  int groove_bsdf_samples = 32;
 };
 
 struct RenderStats {

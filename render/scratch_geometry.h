@@ -20,8 +20,9 @@
 namespace dg {
 
 struct ScratchGeometryOptions {
-  // Edge of the finest cells (mm); 0 = automatic: the narrowest scratch's width / 32, at least
-  // 0.5 micrometre.
+  // Edge of the finest cells (mm); 0 = automatic: the narrowest scratch's width / 16, at least
+  // 0.5 micrometre. Cells are cut along the kinks, so the size only bounds how well the variation
+  // along the path is followed (the cross-sections themselves are exact at any size).
   double cell_mm = 0;
   size_t max_triangles = 40'000'000;  // refuse rather than exhaust memory
 };

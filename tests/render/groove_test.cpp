@@ -414,6 +414,38 @@ TEST(Groove, LitFractionMatchesBruteForce) {
   }
 }
 
+// The precomputed shadowing (ordered projection) gives what the per-piece ray casting gives, for
+// random sections, footprints, views and lights from every side (below the base line, straight
+// up, grazing).
+TEST(Groove, ShadowingMatchesLitFraction) {
+  Rand rnd(17);
+  int compared = 0, partial = 0;
+  for (int c = 0; c < 600; ++c) {
+    const Footprint fp = c % 7 == 0 ? Footprint{0, 0} : randomFootprint(rnd);
+    const Scene sc = randomScene(rnd, c % 7 == 0 ? Footprint{0.5, 0} : fp);
+    const Vec2d e = randomView(rnd);
+    const double lc = rnd(0, 1);
+    const Vec2d l = lc < 0.05 ? Vec2d(0, 1)
+                    : lc < 0.1 ? unitAngle(rnd(1.6, 2.0) * (rnd(0, 1) < 0.5 ? -1 : 1))
+                               : unitAngle(rnd(-1.569, 1.569));
+    const Shadowing sh(sc.sec, l);
+    std::vector<Portion> ps = visible(sc.sec, e, fp);
+    // Portions hit after a reflection too (their x range runs differently from their t range).
+    for (const Portion& p : visible(sc.sec, e, fp)) {
+      const Vec2d d = reflect(e * (-1.0 / std::sqrt(dot2(e, e))), sc.sec.normal(size_t(p.facet)));
+      for (const Portion& h : scatter(sc.sec, p, fp, d).hits) ps.push_back(h);
+    }
+    for (const Portion& p : ps) {
+      const double a = litFraction(sc.sec, p, fp, l), b = sh.litFraction(p, fp);
+      ASSERT_NEAR(a, b, 1e-9) << "case " << c << " facet " << p.facet;
+      ++compared;
+      partial += a > 1e-6 && a < 1 - 1e-6;
+    }
+  }
+  EXPECT_GT(compared, 1000);
+  EXPECT_GT(partial, 100);  // partly shadowed portions were among them
+}
+
 // ---------------------------------------------------------------------------------------------
 // scatter(): specular transport between facets
 // ---------------------------------------------------------------------------------------------

@@ -331,6 +331,9 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
   // Registers a placed defect: its instance id, its COCO attributes (physical parameters, the
   // group, and `extra`) and its entry in the sample's metadata.
   auto addInstance = [&](std::unique_ptr<Defect> defect, size_t g, const json& extra) {
+    // Instance ids are 16-bit (the instance mask); 0 means none.
+    if (s.defects->size() >= 65535)
+      throw InputError(c.file, groups.line, groups.column, "more than 65535 defects in one sample");
     uint16_t id = uint16_t(s.defects->size() + 1);
     defect->setInstanceId(id);
     InstanceInfo info;
@@ -604,7 +607,6 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
     }
     if (!skipped.empty()) meta["rust_not_placed"] = skipped;
   }
-  if (s.defects->size() > 65535) throw InputError(c.file, groups.line, groups.column, "more than 65535 defects in one sample");
   // Dents rendered as geometry: this sample gets its own refined and displaced copy of the part
   // (and its own BVH); every other sample keeps sharing the dataset's part.
   std::vector<const Defect*> displaced;

@@ -332,38 +332,38 @@ class Tracer {
       const int nq = strataPerAxis(nl);
       for (const AreaLight& al : s_.lights.area)
         for (int k = 0; k < nl; ++k) {
-        Vec2f u = stratifiedSample(k, nq, rng);
-        Vec3f q = al.samplePoint(u);
-        Vec3f wl = q - origin;
-        float dist = length(wl);
-        if (!(dist > 0)) continue;
-        wl = wl / dist;
-        if (dot(wl, sp.ng) <= 0 || -dot(wl, al.normal) <= 0) continue;
-        float pl = al.pdfSolidAngle(origin, q);
-        Vec3f wi = fr.toLocal(wl);
-        if (wi.z <= 0 || !(pl > 0)) continue;
-        Rgb f = evalBsdf(m, wo, wi);
-        if (maxComponent(f) <= 0) continue;
-        ++nrays;
-        if (occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f))) continue;
-        float w = powerHeuristic(nl * pl, pdfBsdf(m, wo, wi));
-        L += beta * f * al.radiance * (wi.z * w / (nl * pl));
-      }
+          Vec2f u = stratifiedSample(k, nq, rng);
+          Vec3f q = al.samplePoint(u);
+          Vec3f wl = q - origin;
+          float dist = length(wl);
+          if (!(dist > 0)) continue;
+          wl = wl / dist;
+          if (dot(wl, sp.ng) <= 0 || -dot(wl, al.normal) <= 0) continue;
+          float pl = al.pdfSolidAngle(origin, q);
+          Vec3f wi = fr.toLocal(wl);
+          if (wi.z <= 0 || !(pl > 0)) continue;
+          Rgb f = evalBsdf(m, wo, wi);
+          if (maxComponent(f) <= 0) continue;
+          ++nrays;
+          if (occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f))) continue;
+          float w = powerHeuristic(nl * pl, pdfBsdf(m, wo, wi));
+          L += beta * f * al.radiance * (wi.z * w / (nl * pl));
+        }
       if (s_.lights.env)
         for (int k = 0; k < nl; ++k) {
-        Vec2f u = stratifiedSample(k, nq, rng);
-        Rgb Le;
-        float pe;
-        Vec3f wl = s_.lights.env->sample(u, Le, pe);
-        Vec3f wi = fr.toLocal(wl);
-        if (pe > 0 && wi.z > 0 && dot(wl, sp.ng) > 0 && maxComponent(Le) > 0) {
-          Rgb f = evalBsdf(m, wo, wi);
-          if (maxComponent(f) > 0 && (++nrays, !occluded(scene, origin, wl, 0.0f, kInf))) {
-            float w = powerHeuristic(nl * pe, pdfBsdf(m, wo, wi));
-            L += beta * f * Le * (wi.z * w / (nl * pe));
+          Vec2f u = stratifiedSample(k, nq, rng);
+          Rgb Le;
+          float pe;
+          Vec3f wl = s_.lights.env->sample(u, Le, pe);
+          Vec3f wi = fr.toLocal(wl);
+          if (pe > 0 && wi.z > 0 && dot(wl, sp.ng) > 0 && maxComponent(Le) > 0) {
+            Rgb f = evalBsdf(m, wo, wi);
+            if (maxComponent(f) > 0 && (++nrays, !occluded(scene, origin, wl, 0.0f, kInf))) {
+              float w = powerHeuristic(nl * pe, pdfBsdf(m, wo, wi));
+              L += beta * f * Le * (wi.z * w / (nl * pe));
+            }
           }
         }
-      }
 
       // Continue the path by sampling the BSDF.
       BsdfSample bs;

@@ -301,8 +301,8 @@ class Tracer {
       }
       // Camera hits on scratches: the groove renderer integrates the whole footprint.
       if (depth == 0 && grooves_ && sp.uv_ok) {
-        GrooveSet gs;
-        if (gatherGrooves(sp, h, wo_w, gs)) {
+        thread_local std::vector<GrooveSet> sets;
+        if (gatherGrooves(sp, h, wo_w, sets)) {
           // Weathering over the groove (rust that grew from a bared scratch) covers its facets
           // too: with probability `cover` every facet takes the weathered surface.
           if (has_weathering_) {
@@ -310,10 +310,10 @@ class Tracer {
             DefectShading dw = applyDefects(spw, wo_w, h);
             if (dw.cover > 0 && rng.uniform() < dw.cover) {
               m = weathered(m, dw, 0.0f);
-              gs.one_material = true;
+              for (GrooveSet& gs : sets) gs.one_material = true;
             }
           }
-          L += beta * shadeGrooves(gs, m, wo_w, rng, nrays);
+          L += beta * shadeGrooves(sets, m, wo_w, rng, nrays);
           break;
         }
       }
@@ -413,9 +413,12 @@ class Tracer {
     groove::Footprint fp;
     // Ends and crossings (Bosch §4.2.4) are not integrated by polygon clipping here; the
     // documented fallback: a groove whose end lies in the footprint is blended by the share of
-    // the footprint along T that it covers (`end_share`, rendered with and without it), and of
-    // crossing grooves only the locally deepest direction is kept.
+    // the footprint along T that it covers (`end_share`, rendered with and without it), and
+    // crossing grooves are grouped by direction, each group rendered as its own section in its
+    // own frame and weighted by the share of the footprint where it is the lowest surface
+    // (`share`).
     float end_share = 1.0f;
+    float share = 1.0f;
     groove::Section section_without;  // the section without the ending grooves (when end_share < 1)
     bool one_material = false;        // every facet shows the top material (weathered grooves)
   };
@@ -487,14 +490,14 @@ class Tracer {
   // Collects the grooves whose cross-sections can affect the footprint (Bosch §4.2.1: the box is
   // enlarged by the projected heights toward the viewer and the lights) and merges the parallel
   // ones into one section. Returns false when no groove reaches the footprint.
-  bool gatherGrooves(const SurfacePoint& sp, const Hit& h, Vec3f wo_w, GrooveSet& gs) const {
+  bool gatherGrooves(const SurfacePoint& sp, const Hit& h, Vec3f wo_w, std::vector<GrooveSet>& sets) const {
+    sets.clear();
     if (!outerSide(h, wo_w)) return false;
     float enlarge = (max_height_ + max_depth_) * std::max(viewTan(sp, wo_w), tan_light_max_);
     thread_local std::vector<NearGroove> near;
     nearGrooves(sp, enlarge, near);
     if (near.empty()) return false;
-    // The reference direction: the deepest groove at the centre (crossings keep only the grooves
-    // parallel to it, the documented fallback for Bosch §4.2.4).
+    // The reference direction: the deepest groove at the centre.
     size_t ref = 0;
     float best = 1e30f;
     for (size_t i = 0; i < near.size(); ++i) {
@@ -506,6 +509,66 @@ class Tracer {
         ref = i;
       }
     }
+    // Directions: groups of grooves parallel within 2 degrees, the reference's first (at most
+    // kMaxDirections; grooves of further directions are left out).
+    constexpr size_t kMaxDirections = 3;
+    thread_local std::vector<size_t> rep, group;
+    rep.assign(1, ref);
+    group.assign(near.size(), size_t(-1));
+    for (size_t i = 0; i < near.size(); ++i) {
+      for (size_t g = 0; g < rep.size() && group[i] == size_t(-1); ++g)
+        if (parallel(near[i].pp.tangent, near[rep[g]].pp.tangent)) group[i] = g;
+      if (group[i] == size_t(-1) && rep.size() < kMaxDirections) {
+        group[i] = rep.size();
+        rep.push_back(i);
+      }
+    }
+    // One direction: the whole footprint is one section (the common case, and Bosch's).
+    if (rep.size() == 1) {
+      sets.emplace_back();
+      if (!buildSet(sp, near, ref, enlarge, sets.back())) sets.clear();
+      return !sets.empty();
+    }
+    // Crossings: the share of the footprint where each direction's grooves are the lowest
+    // surface (or, where no groove is below it, the highest pile-up), from a 4 x 4 grid of
+    // points over the pixel footprint; points on the plain surface count for the reference.
+    constexpr int kGrid = 4;
+    float count[kMaxDirections] = {0, 0, 0};
+    for (int j = 0; j < kGrid; ++j)
+      for (int i = 0; i < kGrid; ++i) {
+        float fx = (i + 0.5f) / kGrid - 0.5f, fy = (j + 0.5f) / kGrid - 0.5f;
+        Vec2f q = sp.uv + sp.duvdx * fx + sp.duvdy * fy;
+        size_t lo_g = 0, hi_g = 0;
+        float lo = 0, hi = 0;
+        for (size_t n = 0; n < near.size(); ++n) {
+          if (group[n] == size_t(-1)) continue;
+          float hn = near[n].sc->height(q);
+          if (hn < lo) lo = hn, lo_g = group[n];
+          if (hn > hi) hi = hn, hi_g = group[n];
+        }
+        count[lo < 0 ? lo_g : (hi > 0 ? hi_g : 0)] += 1;
+      }
+    for (size_t g = 0; g < rep.size(); ++g) {
+      if (count[g] <= 0) continue;
+      sets.emplace_back();
+      if (!buildSet(sp, near, rep[g], enlarge, sets.back())) {
+        sets.pop_back();
+        continue;
+      }
+      sets.back().share = count[g] / float(kGrid * kGrid);
+    }
+    // Renormalise over the directions that could be built.
+    float total = 0;
+    for (const GrooveSet& gs : sets) total += gs.share;
+    for (GrooveSet& gs : sets) gs.share /= total;
+    return !sets.empty();
+  }
+
+  static bool parallel(Vec2f a, Vec2f b) { return std::fabs(a.x * b.x + a.y * b.y) >= 0.99939f; }
+
+  // The section of the grooves parallel to near[ref] (within 2 degrees), in its frame.
+  bool buildSet(const SurfacePoint& sp, const std::vector<NearGroove>& near, size_t ref, float enlarge,
+                GrooveSet& gs) const {
     Vec2f t0 = near[ref].pp.tangent;
     if (!grooveFrame(sp, t0, gs.T, gs.B, gs.W)) return false;
     gs.F = sp.p;
@@ -513,6 +576,7 @@ class Tracer {
     gs.fp = footprintAcross(sp, gs.B);
     // Footprint extent along T, for the ends.
     float half_t = 0.5f * (std::fabs(dot(sp.dpdx, gs.T)) + std::fabs(dot(sp.dpdy, gs.T)));
+    // (merge() copies what it keeps, so the buffers are reused from set to set.)
     thread_local std::vector<Profile> profiles;
     thread_local std::vector<groove::PlacedProfile> placed, placed_without;
     profiles.clear();
@@ -523,7 +587,7 @@ class Tracer {
     float end_share = 1.0f;
     for (const NearGroove& ng : near) {
       float c = t0.x * ng.pp.tangent.x + t0.y * ng.pp.tangent.y;
-      if (std::fabs(c) < 0.99939f) continue;  // not parallel within 2 degrees: a crossing
+      if (!parallel(t0, ng.pp.tangent)) continue;  // another direction: its own set
       float sign = c >= 0 ? 1.0f : -1.0f;
       float k = ng.sc->scaleAt(ng.pp.s);
       if (!(k > 0)) continue;
@@ -676,7 +740,9 @@ class Tracer {
     return L;
   }
 
-  Rgb shadeGrooves(const GrooveSet& gs, const Material& top, Vec3f wo_w, Rng& rng, uint64_t& nrays) const {
+  Rgb shadeGrooves(const std::vector<GrooveSet>& sets, const Material& top, Vec3f wo_w, Rng& rng,
+                   uint64_t& nrays) const {
+    const GrooveSet& gs = sets.front();  // every set shares the footprint centre and W
     const int nl = st_.groove_light_samples;
     // The light samples are shared by all facets (the shadowing inside the grooves is exact per
     // facet; the rest of the scene is tested once per sample).
@@ -714,10 +780,14 @@ class Tracer {
           ls.push_back({wl, Le, pe, vis, k});
         }
       }
-    Rgb L = shadeSection(gs, gs.section, top, wo_w, ls, rng, nrays);
-    if (gs.end_share < 1.0f) {
-      Rgb L0 = shadeSection(gs, gs.section_without, top, wo_w, ls, rng, nrays);
-      L = L * gs.end_share + L0 * (1.0f - gs.end_share);
+    Rgb L(0.0f);
+    for (const GrooveSet& set : sets) {
+      Rgb Ls = shadeSection(set, set.section, top, wo_w, ls, rng, nrays);
+      if (set.end_share < 1.0f) {
+        Rgb L0 = shadeSection(set, set.section_without, top, wo_w, ls, rng, nrays);
+        Ls = Ls * set.end_share + L0 * (1.0f - set.end_share);
+      }
+      L += Ls * set.share;
     }
     return L;
   }

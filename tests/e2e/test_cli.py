@@ -154,6 +154,16 @@ class Generate(unittest.TestCase):
         run("generate", cfg, "--out", c, "--shard", "1/2", "--quiet")
         assert_same_tree(self, a, c)
 
+    def test_groove_rendering_gives_the_same_bytes_whatever_the_thread_count(self):
+        # Scratches (groove renderer, crossings) and rust grown from them, on 1 and 2 threads.
+        d = work("determinism_grooves")
+        cfg = os.path.join(ARGS.source, "configs", "scratch_rust.yaml")
+        a, b = os.path.join(d, "t1"), os.path.join(d, "t2")
+        for out, threads in ((a, "1"), (b, "2")):
+            run("generate", cfg, "--out", out, "--count", "1", "--scale", "0.25", "--spp", "2",
+                "--threads", threads, "--quiet")
+        assert_same_tree(self, a, b)
+
     def test_resume_gives_the_same_bytes_as_an_uninterrupted_run(self):
         d = work("resume")
         cfg = self.small_config(d)

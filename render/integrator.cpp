@@ -247,6 +247,22 @@ class Tracer {
     return m;
   }
 
+  // Stratified sample k (of an nq x nq grid) on an area light as seen from `origin`: the unit
+  // direction, the distance and the solid-angle pdf. False when the point is behind the light
+  // (one-sided emitters) or coincides with the origin.
+  static bool sampleAreaLight(const AreaLight& al, int k, int nq, Vec3f origin, Rng& rng, Vec3f& wl, float& dist,
+                              float& pl) {
+    Vec2f u = stratifiedSample(k, nq, rng);
+    Vec3f q = al.samplePoint(u);
+    wl = q - origin;
+    dist = length(wl);
+    if (!(dist > 0)) return false;
+    wl = wl / dist;
+    if (-dot(wl, al.normal) <= 0) return false;
+    pl = al.pdfSolidAngle(origin, q);
+    return true;
+  }
+
   Rgb trace(DiffRay ray, Rng& rng, uint64_t& nrays) const {
     // Camera rays count as "specular": no MIS on directly seen lights.
     return continuePath(ray, Rgb(1.0f), 0.0f, true, Vec3f(0.0f), 0, rng, nrays, 1);
@@ -332,14 +348,9 @@ class Tracer {
       const int nq = strataPerAxis(nl);
       for (const AreaLight& al : s_.lights.area)
         for (int k = 0; k < nl; ++k) {
-          Vec2f u = stratifiedSample(k, nq, rng);
-          Vec3f q = al.samplePoint(u);
-          Vec3f wl = q - origin;
-          float dist = length(wl);
-          if (!(dist > 0)) continue;
-          wl = wl / dist;
-          if (dot(wl, sp.ng) <= 0 || -dot(wl, al.normal) <= 0) continue;
-          float pl = al.pdfSolidAngle(origin, q);
+          Vec3f wl;
+          float dist, pl;
+          if (!sampleAreaLight(al, k, nq, origin, rng, wl, dist, pl) || dot(wl, sp.ng) <= 0) continue;
           Vec3f wi = fr.toLocal(wl);
           if (wi.z <= 0 || !(pl > 0)) continue;
           Rgb f = evalBsdf(m, wo, wi);
@@ -755,15 +766,9 @@ class Tracer {
     const int nq = strataPerAxis(nl);
     for (const AreaLight& al : s_.lights.area)
       for (int k = 0; k < nl; ++k) {
-        Vec2f u = stratifiedSample(k, nq, rng);
-        Vec3f q = al.samplePoint(u);
-        Vec3f wl = q - origin;
-        float dist = length(wl);
-        if (!(dist > 0)) continue;
-        wl = wl / dist;
-        if (-dot(wl, al.normal) <= 0) continue;
-        float pl = al.pdfSolidAngle(origin, q);
-        if (!(pl > 0)) continue;
+        Vec3f wl;
+        float dist, pl;
+        if (!sampleAreaLight(al, k, nq, origin, rng, wl, dist, pl) || !(pl > 0)) continue;
         ++nrays;
         bool vis = !occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f));
         ls.push_back({wl, al.radiance, pl, vis, k});

@@ -417,7 +417,17 @@ inline LobeProbs lobeProbs(const Material& m, Vec3f wo) {
 
 }  // namespace
 
-Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi) {
+BsdfAt::BsdfAt(const Material& m, Vec3f wo) : m_(m), wo_(wo) {
+  if (!(wo.z > 0.0f) || m.kind == MaterialKind::RoughDiffuse) return;
+  const LobeProbs lp = lobeProbs(m, wo);
+  for (int i = 0; i < 3; ++i) lobe_[i] = lp.p[i];
+  if (m.kind == MaterialKind::Plastic) through_wo_ = 1.0f - fresnelDielectric(wo.z, m.ior);
+  if (m.kind == MaterialKind::CarPaint) through_wo_ = 1.0f - fresnelDielectric(wo.z, m.coat_ior);
+}
+
+Rgb BsdfAt::eval(Vec3f wi) const {
+  const Material& m = m_;
+  const Vec3f wo = wo_;
   if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return Rgb(0.0f);
   if (m.kind == MaterialKind::RoughDiffuse)  // needs no half vector
     return orenNayar(clamp01(m.base_color), m.sigma, wo, wi);
@@ -437,15 +447,13 @@ Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi) {
     case MaterialKind::Plastic: {
       const float spec = fresnelDielectric(cos_oh, m.ior) *
                          microfacetReflection(m.model, alphaOf(m.roughness), wo, wi, h);
-      const float through =
-          (1.0f - fresnelDielectric(wi.z, m.ior)) * (1.0f - fresnelDielectric(wo.z, m.ior));
+      const float through = (1.0f - fresnelDielectric(wi.z, m.ior)) * through_wo_;
       return clamp01(m.base_color) * (through * kInvPiF) + Rgb(spec);
     }
     case MaterialKind::CarPaint: {
       const float spec = fresnelDielectric(cos_oh, m.coat_ior) *
                          microfacetReflection(m.model, alphaOf(m.coat_roughness), wo, wi, h);
-      const float through = (1.0f - fresnelDielectric(wi.z, m.coat_ior)) *
-                            (1.0f - fresnelDielectric(wo.z, m.coat_ior));
+      const float through = (1.0f - fresnelDielectric(wi.z, m.coat_ior)) * through_wo_;
       const float fa = clampf(m.flake_amount, 0.0f, 1.0f);
       const Rgb base = clamp01(m.base_color);
       Rgb layer = base * ((1.0f - fa) * kInvPiF);
@@ -471,28 +479,33 @@ Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi) {
   return Rgb(0.0f);
 }
 
-float pdfBsdf(const Material& m, Vec3f wo, Vec3f wi) {
+float BsdfAt::pdf(Vec3f wi) const {
+  const Material& m = m_;
+  const Vec3f wo = wo_;
   if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return 0.0f;
   if (m.kind == MaterialKind::RoughDiffuse) return wi.z * kInvPiF;  // cosine-weighted only
   const Vec3f h = normalize(wo + wi);
-  const LobeProbs lp = lobeProbs(m, wo);
   const float spec_alpha =
       alphaOf(m.kind == MaterialKind::CarPaint ? m.coat_roughness : m.roughness);
   float pdf = 0.0f;
-  if (lp.p[kSpec] > 0.0f) pdf += lp.p[kSpec] * microfacetPdf(m.model, spec_alpha, wo, h);
-  if (lp.p[kDiffuse] > 0.0f) pdf += lp.p[kDiffuse] * wi.z * kInvPiF;
-  if (lp.p[kFlake] > 0.0f) {
+  if (lobe_[kSpec] > 0.0f) pdf += lobe_[kSpec] * microfacetPdf(m.model, spec_alpha, wo, h);
+  if (lobe_[kDiffuse] > 0.0f) pdf += lobe_[kDiffuse] * wi.z * kInvPiF;
+  if (lobe_[kFlake] > 0.0f) {
     if (m.flake_normal.z < 1.0f) {
       const Frame ff = Frame::fromNormal(m.flake_normal);
       const Vec3f o = ff.toLocal(wo), i = ff.toLocal(wi);
       if (o.z > 0.0f && i.z > 0.0f)
-        pdf += lp.p[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), o, normalize(o + i));
+        pdf += lobe_[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), o, normalize(o + i));
     } else {
-      pdf += lp.p[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), wo, h);
+      pdf += lobe_[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), wo, h);
     }
   }
   return pdf;
 }
+
+Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi) { return BsdfAt(m, wo).eval(wi); }
+
+float pdfBsdf(const Material& m, Vec3f wo, Vec3f wi) { return BsdfAt(m, wo).pdf(wi); }
 
 bool sampleBsdf(const Material& m, Vec3f wo, float u0, Vec2f u, BsdfSample& out) {
   if (!(wo.z > 0.0f)) return false;
@@ -534,9 +547,10 @@ bool sampleBsdf(const Material& m, Vec3f wo, float u0, Vec2f u, BsdfSample& out)
   }
   if (!(wi.z > 0.0f)) return false;
   out.wi = wi;
-  out.pdf = pdfBsdf(m, wo, wi);
+  const BsdfAt at(m, wo);
+  out.pdf = at.pdf(wi);
   if (!(out.pdf > 0.0f) || !std::isfinite(out.pdf)) return false;
-  out.f = evalBsdf(m, wo, wi);
+  out.f = at.eval(wi);
   return true;
 }
 

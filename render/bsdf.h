@@ -70,6 +70,23 @@ struct BsdfSample {
 
 Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi);
 float pdfBsdf(const Material& m, Vec3f wo, Vec3f wi);
+
+// The BSDF at one shading point seen from a fixed outgoing direction wo: what depends on wo alone
+// (the lobe-selection probabilities, the coat's transmission toward wo) is computed once, so that
+// many incident directions (light samples) cost less. evalBsdf() and pdfBsdf() are built on it,
+// so the values are the same to the bit. The material must outlive it.
+class BsdfAt {
+ public:
+  BsdfAt(const Material& m, Vec3f wo);
+  Rgb eval(Vec3f wi) const;
+  float pdf(Vec3f wi) const;
+
+ private:
+  const Material& m_;
+  Vec3f wo_;
+  float lobe_[3] = {0.0f, 0.0f, 0.0f};  // probabilities of the specular, diffuse and flake lobes
+  float through_wo_ = 0.0f;             // 1 - Fresnel of the coat toward wo (plastic, car paint)
+};
 // u0 chooses a lobe, u chooses the direction. Returns false if no direction was produced.
 bool sampleBsdf(const Material& m, Vec3f wo, float u0, Vec2f u, BsdfSample& out);
 

@@ -346,6 +346,7 @@ class Tracer {
       // against the BSDF's sampling.
       const int nl = (depth == 0 && grooves_) ? st_.groove_light_samples : 1;
       const int nq = strataPerAxis(nl);
+      const BsdfAt bsdf(m, wo);
       for (const AreaLight& al : s_.lights.area)
         for (int k = 0; k < nl; ++k) {
           Vec3f wl;
@@ -353,11 +354,11 @@ class Tracer {
           if (!sampleAreaLight(al, k, nq, origin, rng, wl, dist, pl) || dot(wl, sp.ng) <= 0) continue;
           Vec3f wi = fr.toLocal(wl);
           if (wi.z <= 0 || !(pl > 0)) continue;
-          Rgb f = evalBsdf(m, wo, wi);
+          Rgb f = bsdf.eval(wi);
           if (maxComponent(f) <= 0) continue;
           ++nrays;
           if (occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f))) continue;
-          float w = powerHeuristic(nl * pl, pdfBsdf(m, wo, wi));
+          float w = powerHeuristic(nl * pl, bsdf.pdf(wi));
           L += beta * f * al.radiance * (wi.z * w / (nl * pl));
         }
       if (s_.lights.env)
@@ -368,9 +369,9 @@ class Tracer {
           Vec3f wl = s_.lights.env->sample(u, Le, pe);
           Vec3f wi = fr.toLocal(wl);
           if (pe > 0 && wi.z > 0 && dot(wl, sp.ng) > 0 && maxComponent(Le) > 0) {
-            Rgb f = evalBsdf(m, wo, wi);
+            Rgb f = bsdf.eval(wi);
             if (maxComponent(f) > 0 && (++nrays, !occluded(scene, origin, wl, 0.0f, kInf))) {
-              float w = powerHeuristic(nl * pe, pdfBsdf(m, wo, wi));
+              float w = powerHeuristic(nl * pe, bsdf.pdf(wi));
               L += beta * f * Le * (wi.z * w / (nl * pe));
             }
           }
@@ -684,6 +685,7 @@ class Tracer {
       Frame fr = Frame::fromNormalTangent(N, gs.T);
       Vec3f wo = fr.toLocal(wo_w);
       if (wo.z <= 0) continue;
+      const BsdfAt bsdf(m, wo);
       for (size_t li = 0; li < ls.size(); ++li) {
         const LightSample& l = ls[li];
         if (!l.visible || (nsub > 1 && (l.k % nq + l.k / nq) % nsub != off)) continue;
@@ -691,8 +693,8 @@ class Tracer {
         if (wi.z <= 0) continue;
         double lit = shadow[li].litFraction(p, gs.fp);
         if (!(lit > 0)) continue;
-        Rgb f = evalBsdf(m, wo, wi);
-        float w = powerHeuristic(nl_eff * l.pdf, nb * pdfBsdf(m, wo, wi));
+        Rgb f = bsdf.eval(wi);
+        float w = powerHeuristic(nl_eff * l.pdf, nb * bsdf.pdf(wi));
         L += beta * f * l.Le * float(p.weight * lit * wi.z * w / (nl_eff * l.pdf));
       }
     }
@@ -702,10 +704,16 @@ class Tracer {
     Vec3f origin = gs.F + gs.W * (max_height_ + rayEpsilon(gs.F));
     // Latin-hypercube strata for the portion choice, the lobe choice and the direction: each of
     // the four dimensions is stratified into nb intervals, paired by independent permutations.
-    // (A local buffer: the recursion below re-enters this function.)
-    std::vector<int> perm(size_t(3 * nb));
+    // (A buffer on the stack: the recursion below re-enters this function.)
+    int perm_local[3 * 64];
+    std::vector<int> perm_heap;
+    int* perm = perm_local;
+    if (nb > 64) {
+      perm_heap.resize(size_t(3 * nb));
+      perm = perm_heap.data();
+    }
     for (int d = 0; d < 3; ++d) {
-      int* p = &perm[size_t(d * nb)];
+      int* p = perm + d * nb;
       for (int i = 0; i < nb; ++i) p[i] = i;
       for (int i = nb - 1; i > 0; --i) std::swap(p[i], p[int(rng.uniform() * float(i + 1)) % (i + 1)]);
     }
@@ -730,9 +738,9 @@ class Tracer {
       Vec3f wo = fr.toLocal(wo_w);
       BsdfSample bs;
       const float inv = 1.0f / float(nb);
-      float ul = std::min((float(perm[size_t(j)]) + rng.uniform()) * inv, kOneMinusEps);
-      Vec2f ud{std::min((float(perm[size_t(nb + j)]) + rng.uniform()) * inv, kOneMinusEps),
-               std::min((float(perm[size_t(2 * nb + j)]) + rng.uniform()) * inv, kOneMinusEps)};
+      float ul = std::min((float(perm[j]) + rng.uniform()) * inv, kOneMinusEps);
+      Vec2f ud{std::min((float(perm[nb + j]) + rng.uniform()) * inv, kOneMinusEps),
+               std::min((float(perm[2 * nb + j]) + rng.uniform()) * inv, kOneMinusEps)};
       if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) continue;
       Vec3f d = fr.toWorld(bs.wi);
       Rgb ratio = bs.f * (bs.wi.z / bs.pdf);

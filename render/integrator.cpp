@@ -346,6 +346,9 @@ class Tracer {
       // against the BSDF's sampling.
       const int nl = (depth == 0 && grooves_) ? st_.groove_light_samples : 1;
       const int nq = strataPerAxis(nl);
+      // With groove shading on, camera hits also split into ns BSDF directions (below): glossy
+      // surfaces lit by a wide light (a dome) are found mostly by BSDF sampling.
+      const int ns = (depth == 0 && grooves_) ? st_.camera_hit_bsdf_samples : 1;
       const BsdfAt bsdf(m, wo);
       for (const AreaLight& al : s_.lights.area)
         for (int k = 0; k < nl; ++k) {
@@ -358,7 +361,7 @@ class Tracer {
           if (maxComponent(f) <= 0) continue;
           ++nrays;
           if (occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f))) continue;
-          float w = powerHeuristic(nl * pl, bsdf.pdf(wi));
+          float w = powerHeuristic(nl * pl, ns * bsdf.pdf(wi));
           L += beta * f * al.radiance * (wi.z * w / (nl * pl));
         }
       if (s_.lights.env)
@@ -371,11 +374,50 @@ class Tracer {
           if (pe > 0 && wi.z > 0 && dot(wl, sp.ng) > 0 && maxComponent(Le) > 0) {
             Rgb f = bsdf.eval(wi);
             if (maxComponent(f) > 0 && (++nrays, !occluded(scene, origin, wl, 0.0f, kInf))) {
-              float w = powerHeuristic(nl * pe, bsdf.pdf(wi));
+              float w = powerHeuristic(nl * pe, ns * bsdf.pdf(wi));
               L += beta * f * Le * (wi.z * w / (nl * pe));
             }
           }
         }
+
+      // Auxiliary rays follow the mirror transfer about the shading normal (the surface's
+      // curvature is neglected); after a rough bounce this underestimates the footprint.
+      auto nextRay = [&](Vec3f d) {
+        DiffRay nr;
+        nr.o = origin;
+        nr.d = d;
+        nr.dodx = sp.dpdx;
+        nr.dody = sp.dpdy;
+        Vec3f rx = reflect(ray.d + ray.dddx, sp.ns), ry = reflect(ray.d + ray.dddy, sp.ns);
+        Vec3f r0 = reflect(ray.d, sp.ns);
+        nr.dddx = rx - r0;
+        nr.dddy = ry - r0;
+        return nr;
+      };
+      if (ns > 1) {
+        // Split: ns BSDF directions (lobe and direction stratified as a Latin hypercube), each
+        // continued as its own path carrying 1/ns of the throughput.
+        int perm[2][64];
+        const int n = std::min(ns, 64);
+        for (auto& p : perm) {
+          for (int i = 0; i < n; ++i) p[i] = i;
+          for (int i = n - 1; i > 0; --i) std::swap(p[i], p[int(rng.uniform() * float(i + 1)) % (i + 1)]);
+        }
+        const float inv = 1.0f / float(n);
+        for (int j = 0; j < n; ++j) {
+          BsdfSample bs;
+          float ul = std::min((float(j) + rng.uniform()) * inv, kOneMinusEps);
+          Vec2f ud{std::min((float(perm[0][j]) + rng.uniform()) * inv, kOneMinusEps),
+                   std::min((float(perm[1][j]) + rng.uniform()) * inv, kOneMinusEps)};
+          if (!sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) continue;
+          Vec3f wi_w = fr.toWorld(bs.wi);
+          if (dot(wi_w, sp.ng) <= 0) continue;
+          Rgb b = beta * bs.f * (bs.wi.z / (bs.pdf * float(n)));
+          if (!isFinite(b) || maxComponent(b) <= 0) continue;
+          L += continuePath(nextRay(wi_w), b, float(n) * bs.pdf, false, origin, depth + 1, rng, nrays, float(nl));
+        }
+        break;
+      }
 
       // Continue the path by sampling the BSDF.
       BsdfSample bs;
@@ -390,18 +432,7 @@ class Tracer {
       prev_specular = false;
       prev_nl = float(nl);
       prev_p = origin;
-      // Auxiliary rays follow the mirror transfer about the shading normal (the surface's
-      // curvature is neglected); after a rough bounce this underestimates the footprint.
-      DiffRay nr;
-      nr.o = origin;
-      nr.d = wi_w;
-      nr.dodx = sp.dpdx;
-      nr.dody = sp.dpdy;
-      Vec3f rx = reflect(ray.d + ray.dddx, sp.ns), ry = reflect(ray.d + ray.dddy, sp.ns);
-      Vec3f r0 = reflect(ray.d, sp.ns);
-      nr.dddx = rx - r0;
-      nr.dddy = ry - r0;
-      ray = nr;
+      ray = nextRay(wi_w);
       // Russian roulette after three bounces; the survival test uses the path's own random stream.
       if (depth >= 3) {
         float q = std::max(0.05f, 1.0f - maxComponent(beta));

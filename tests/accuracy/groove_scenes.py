@@ -43,6 +43,17 @@ LAYOUTS = {
     fade_mm: 0.6
     region: [0.43, 0.43, 0.57, 0.57]
 """,
+    # Thirty concentric wash-swirl arcs over most of the view (bench only: the cut mesh has 2.5
+    # million triangles, and the time to build it is part of what the bench measures).
+    "swirls": """
+  - type: scratch
+    pattern: swirl
+    count: 30
+    force_kg: 0.6
+    hardness_hv: 30
+    fade_mm: 1
+    region: [0.2, 0.2, 0.8, 0.8]
+""",
 }
 
 LIGHTS = {

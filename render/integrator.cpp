@@ -82,12 +82,22 @@ bool occluded(RTCScene scene, Vec3f o, Vec3f d, float tnear, float tfar) {
   return r.tfar < 0;  // Embree sets tfar to -inf on occlusion
 }
 
-// Light samples: n per light, stratified on an nq x nq grid over the light's sample domain
-// (nq = round(sqrt(n)); sample k falls in stratum k mod nq^2). One sample is one uniform point.
-int strataPerAxis(int n) { return std::max(1, int(std::lround(std::sqrt(float(n))))); }
-Vec2f stratifiedSample(int k, int nq, Rng& rng) {
-  float ux = ((k % nq) + rng.uniform()) / nq;
-  float uy = ((k / nq) % nq + rng.uniform()) / nq;
+// Light samples: n per light, sample k of them stratified over the light's sample domain: on a
+// q x q grid when n = q^2 (strataPerAxis(n) = q), else in n strata along the first coordinate
+// (strataPerAxis(n) = 0). Every stratum is used once and each sample is one uniform point, so
+// the estimate is unbiased for any n.
+int strataPerAxis(int n) {
+  int q = int(std::lround(std::sqrt(float(std::max(1, n)))));
+  return q * q == n ? q : 0;
+}
+Vec2f stratifiedSample(int k, int n, Rng& rng) {
+  const int q = strataPerAxis(n);
+  if (q == 0) {
+    float ux = ((k % n) + rng.uniform()) / n;
+    return {ux, rng.uniform()};
+  }
+  float ux = ((k % q) + rng.uniform()) / q;
+  float uy = ((k / q) % q + rng.uniform()) / q;
   return {ux, uy};
 }
 
@@ -247,12 +257,12 @@ class Tracer {
     return m;
   }
 
-  // Stratified sample k (of an nq x nq grid) on an area light as seen from `origin`: the unit
+  // Stratified sample k of n (stratifiedSample) on an area light as seen from `origin`: the unit
   // direction, the distance and the solid-angle pdf. False when the point is behind the light
   // (one-sided emitters) or coincides with the origin.
-  static bool sampleAreaLight(const AreaLight& al, int k, int nq, Vec3f origin, Rng& rng, Vec3f& wl, float& dist,
+  static bool sampleAreaLight(const AreaLight& al, int k, int n, Vec3f origin, Rng& rng, Vec3f& wl, float& dist,
                               float& pl) {
-    Vec2f u = stratifiedSample(k, nq, rng);
+    Vec2f u = stratifiedSample(k, n, rng);
     Vec3f q = al.samplePoint(u);
     wl = q - origin;
     dist = length(wl);
@@ -345,7 +355,6 @@ class Tracer {
       // groove's count at camera hits so that flat and grooved pixels converge alike), MIS
       // against the BSDF's sampling.
       const int nl = (depth == 0 && grooves_) ? st_.groove_light_samples : 1;
-      const int nq = strataPerAxis(nl);
       // With groove shading on, camera hits also split into ns BSDF directions (below): glossy
       // surfaces lit by a wide light (a dome) are found mostly by BSDF sampling.
       const int ns = (depth == 0 && grooves_) ? st_.camera_hit_bsdf_samples : 1;
@@ -354,7 +363,7 @@ class Tracer {
         for (int k = 0; k < nl; ++k) {
           Vec3f wl;
           float dist, pl;
-          if (!sampleAreaLight(al, k, nq, origin, rng, wl, dist, pl) || dot(wl, sp.ng) <= 0) continue;
+          if (!sampleAreaLight(al, k, nl, origin, rng, wl, dist, pl) || dot(wl, sp.ng) <= 0) continue;
           Vec3f wi = fr.toLocal(wl);
           if (wi.z <= 0 || !(pl > 0)) continue;
           Rgb f = bsdf.eval(wi);
@@ -366,7 +375,7 @@ class Tracer {
         }
       if (s_.lights.env)
         for (int k = 0; k < nl; ++k) {
-          Vec2f u = stratifiedSample(k, nq, rng);
+          Vec2f u = stratifiedSample(k, nl, rng);
           Rgb Le;
           float pe;
           Vec3f wl = s_.lights.env->sample(u, Le, pe);
@@ -699,9 +708,9 @@ class Tracer {
     // Deeper levels are reached by many first-level directions, so each takes one of nq subsets
     // of every light's samples: a diagonal of the nq x nq strata ((column + row) mod nq), chosen at
     // random. Every sample is used with probability 1/nq, so the estimate stays unbiased with
-    // nl / nq samples per light (also the MIS count).
+    // nl / nq samples per light (also the MIS count). (All samples when nl is not a square.)
     const int nq = strataPerAxis(nl);
-    const int nsub = level == 0 ? 1 : nq;
+    const int nsub = level == 0 || nq == 0 ? 1 : nq;
     const int off = nsub > 1 ? std::min(nsub - 1, int(rng.uniform() * float(nsub))) : 0;
     const float nl_eff = float(nl) / float(nsub);
     Rgb L(0.0f);
@@ -800,21 +809,20 @@ class Tracer {
     ls.clear();
     Vec3f origin = gs.F + gs.W * (max_height_ + rayEpsilon(gs.F));
     RTCScene scene = s_.part->scene();
-    // nl stratified samples per light (an nq x nq grid over the light's sample domain); each
-    // carries 1/nl of the estimate and the MIS weights count nl light samples per BSDF sample.
-    const int nq = strataPerAxis(nl);
+    // nl stratified samples per light (stratifiedSample); each carries 1/nl of the estimate and
+    // the MIS weights count nl light samples per BSDF sample.
     for (const AreaLight& al : s_.lights.area)
       for (int k = 0; k < nl; ++k) {
         Vec3f wl;
         float dist, pl;
-        if (!sampleAreaLight(al, k, nq, origin, rng, wl, dist, pl) || !(pl > 0)) continue;
+        if (!sampleAreaLight(al, k, nl, origin, rng, wl, dist, pl) || !(pl > 0)) continue;
         ++nrays;
         bool vis = !occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f));
         ls.push_back({wl, al.radiance, pl, vis, k});
       }
     if (s_.lights.env)
       for (int k = 0; k < nl; ++k) {
-        Vec2f u = stratifiedSample(k, nq, rng);
+        Vec2f u = stratifiedSample(k, nl, rng);
         Rgb Le;
         float pe;
         Vec3f wl = s_.lights.env->sample(u, Le, pe);

@@ -217,3 +217,31 @@ TEST(Render, RustStartsWhereAScratchBaresTheSteel) {
     for (int y = 127; y <= 128; ++y) red += g.rgb(x, y, 0) > 2 * g.rgb(x, y, 2);
   EXPECT_EQ(red, 0);
 }
+
+// Groove shading takes groove_light_samples stratified samples per light at every camera hit. Any
+// count must give the same image on average, squares (a q x q grid) or not (strata along one
+// axis): a count whose grid missed strata would leave part of the light out. A Lambert plate
+// under a large, close rectangular light, whose strata contribute very differently.
+TEST(Render, GrooveLightSampleCountsAgreeOnAverage) {
+  std::string cfg = "part:\n  type: plate\n  width_mm: 300\n  height_mm: 200\n"
+                    "material:\n  type: plastic\n  base_color: [0.8, 0.8, 0.8]\n  ior: 1.0001\n"
+                    "lights:\n  - type: rect\n    position: [150, 100, 120]\n    target: [0, 0, 0]\n"
+                    "    size_mm: [400, 400]\n    radiance: [1, 1, 1]\n"
+                    "camera:\n  intrinsics: [2000, 2000, 15.5, 15.5]\n  position: [0, 0, 500]\n"
+                    "render:\n  resolution: [32, 32]\n  spp: 16\n  max_bounces: 1\n  scratches: groove\n"
+                    "defects:\n  - type: scratch\n    count: 1\n    length_mm: 5\n    force_kg: 1\n"
+                    "    center: [0.05, 0.05]\n";
+  Dataset ds = prepareDataset(parseConfig(cfg, "test.yaml"));
+  auto meanFor = [&](int nl) {
+    Sample s = makeSample(ds, 1, 0);
+    s.settings.groove_light_samples = nl;
+    RenderFrame f = render(s.scene, s.settings);
+    double sum = 0;
+    for (float v : f.rgb.data) sum += v;
+    return sum / double(f.rgb.data.size());
+  };
+  const double ref = meanFor(64);
+  ASSERT_GT(ref, 0.05);
+  for (int nl : {1, 2, 3, 5, 8, 9, 16})
+    EXPECT_NEAR(meanFor(nl) / ref, 1.0, 0.01) << nl << " light samples";
+}

@@ -164,6 +164,23 @@ class Generate(unittest.TestCase):
                 "--threads", threads, "--quiet")
         assert_same_tree(self, a, b)
 
+    def test_noise_seed_changes_the_noise_only(self):
+        # render.noise_seed: the same scene (placements, masks, annotations) with other noise.
+        d = work("noise_seed")
+        a, b = os.path.join(d, "a"), os.path.join(d, "b")
+        run("generate", self.small_config(d), "--out", a, "--count", "1", "--quiet")
+        with open(os.path.join(d, "seeded.yaml"), "w") as f:
+            f.write(SMALL.replace("  exr: true\n", "  exr: true\n  noise_seed: 5\n"))
+        run("generate", os.path.join(d, "seeded.yaml"), "--out", b, "--count", "1", "--quiet")
+        for m in ("masks/000000_semantic.png", "masks/000000_instance.png"):
+            self.assertEqual(read_bytes(os.path.join(a, m)), read_bytes(os.path.join(b, m)), m)
+        self.assertNotEqual(read_bytes(os.path.join(a, "images", "000000.png")),
+                            read_bytes(os.path.join(b, "images", "000000.png")))
+        ma, mb = (load_json(os.path.join(x, "samples", "000000.json")) for x in (a, b))
+        self.assertEqual(ma["defects"], mb["defects"])
+        self.assertEqual(ma["sampled"], mb["sampled"])
+        self.assertEqual(ma["coco"]["annotations"], mb["coco"]["annotations"])
+
     def test_resume_gives_the_same_bytes_as_an_uninterrupted_run(self):
         d = work("resume")
         cfg = self.small_config(d)

@@ -357,7 +357,9 @@ class Tracer {
       const int nl = (depth == 0 && grooves_) ? st_.groove_light_samples : 1;
       // With groove shading on, camera hits also split into ns BSDF directions (below): glossy
       // surfaces lit by a wide light (a dome) are found mostly by BSDF sampling.
-      const int ns = (depth == 0 && grooves_) ? st_.camera_hit_bsdf_samples : 1;
+      const int ns = (depth == 0 && grooves_)
+                         ? std::clamp(st_.camera_hit_bsdf_per_pixel / std::max(1, st_.spp), 1, st_.camera_hit_bsdf_samples)
+                         : 1;
       const BsdfAt bsdf(m, wo);
       for (const AreaLight& al : s_.lights.area)
         for (int k = 0; k < nl; ++k) {

@@ -62,8 +62,12 @@ struct RenderSettings {
   // against the converged reference on the parallel/bar scene at 4 spp, 32 gave 0.08%.
   int groove_bsdf_samples = 32;
   // With groove shading on, BSDF directions at every other camera hit, each continued as its own
-  // path (at most 64): glossy surfaces lit by wide lights converge alike on and off the grooves.
+  // path: glossy surfaces lit by wide lights converge alike on and off the grooves. At most
+  // camera_hit_bsdf_samples (and 64) per camera sample, and no more than camera_hit_bsdf_per_pixel
+  // / spp: at high spp the camera samples themselves supply the directions (8 up to 4 spp, then
+  // 4, 2, 1 at 8, 16, 32 spp).
   int camera_hit_bsdf_samples = 8;
+  int camera_hit_bsdf_per_pixel = 32;
 };
 
 struct RenderStats {

@@ -71,8 +71,8 @@ float Rust::phi(Vec2f p, float footprint, Vec2f* grad) const {
   return r / p_.radius_mm + p_.roughness * n;
 }
 
-Box2 Rust::support() const {
-  float ext = extent();
+// The origin (point or path) grown by `ext` on every side.
+Box2 Rust::originBox(float ext) const {
   Box2 o = path_ ? path_->bounds() : Box2{p_.origin_uv, p_.origin_uv};
   Box2 b;
   b.lo = o.lo - Vec2f(ext, ext);
@@ -80,14 +80,9 @@ Box2 Rust::support() const {
   return b;
 }
 
-Box2 Rust::maskBox() const {
-  float ext = p_.radius_mm * (g_ + p_.roughness);
-  Box2 o = path_ ? path_->bounds() : Box2{p_.origin_uv, p_.origin_uv};
-  Box2 b;
-  b.lo = o.lo - Vec2f(ext, ext);
-  b.hi = o.hi + Vec2f(ext, ext);
-  return b;
-}
+Box2 Rust::support() const { return originBox(extent()); }
+
+Box2 Rust::maskBox() const { return originBox(p_.radius_mm * (g_ + p_.roughness)); }
 
 bool Rust::inMask(Vec2f p) const { return g_ > 0 && phi(p) < g_; }
 

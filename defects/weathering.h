@@ -63,6 +63,7 @@ class Rust final : public Defect {
  private:
   float originDistance(Vec2f p, Vec2f* dir) const;
   float extent() const;  // farthest distance from the origin that can be rusty or blistered
+  Box2 originBox(float ext) const;
   RustParams p_;
   float g_;
   std::optional<ScratchPath> path_;

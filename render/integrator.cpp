@@ -273,6 +273,13 @@ class Tracer {
     return true;
   }
 
+  // Stratified sample k of n on the environment light: its direction, radiance Le and
+  // solid-angle pdf pe.
+  Vec3f sampleEnvLight(int k, int n, Rng& rng, Rgb& Le, float& pe) const {
+    Vec2f u = stratifiedSample(k, n, rng);
+    return s_.lights.env->sample(u, Le, pe);
+  }
+
   Rgb trace(DiffRay ray, Rng& rng, uint64_t& nrays) const {
     // Camera rays count as "specular": no MIS on directly seen lights.
     return continuePath(ray, Rgb(1.0f), 0.0f, true, Vec3f(0.0f), 0, rng, nrays, 1);
@@ -377,10 +384,9 @@ class Tracer {
         }
       if (s_.lights.env)
         for (int k = 0; k < nl; ++k) {
-          Vec2f u = stratifiedSample(k, nl, rng);
           Rgb Le;
           float pe;
-          Vec3f wl = s_.lights.env->sample(u, Le, pe);
+          Vec3f wl = sampleEnvLight(k, nl, rng, Le, pe);
           Vec3f wi = fr.toLocal(wl);
           if (pe > 0 && wi.z > 0 && dot(wl, sp.ng) > 0 && maxComponent(Le) > 0) {
             Rgb f = bsdf.eval(wi);
@@ -824,10 +830,9 @@ class Tracer {
       }
     if (s_.lights.env)
       for (int k = 0; k < nl; ++k) {
-        Vec2f u = stratifiedSample(k, nl, rng);
         Rgb Le;
         float pe;
-        Vec3f wl = s_.lights.env->sample(u, Le, pe);
+        Vec3f wl = sampleEnvLight(k, nl, rng, Le, pe);
         if (pe > 0 && maxComponent(Le) > 0) {
           ++nrays;
           bool vis = !occluded(scene, origin, wl, 0.0f, kInf);

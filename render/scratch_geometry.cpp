@@ -169,7 +169,6 @@ TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<con
   };
   // Counter-clockwise seen from the winding normal: flip when the chart is mirrored.
   const bool flip = dot(cross(a.u, a.v), a.n) < 0;
-  const Vec3d dpdu_flat = a.u, dpdv_flat = a.v;
   struct Soup {
     std::vector<Vec3f> positions, normals;
     std::vector<Vec2f> uvs;
@@ -281,8 +280,6 @@ TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<con
       }
     }
   });
-  (void)dpdu_flat;
-  (void)dpdv_flat;
   TriangleMesh out;
   out.source = part.source + "+scratches";
   size_t nv = 0;
@@ -300,14 +297,12 @@ TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<con
   }
   out.indices.resize(nv);
   for (size_t k = 0; k < nv; ++k) out.indices[k] = uint32_t(k);
-  TriangleMesh m;
-  m = std::move(out);
-  m.computeMmPerUv();
+  out.computeMmPerUv();
   if (stats) {
-    stats->triangles = m.triangleCount();
+    stats->triangles = out.triangleCount();
     stats->cell_mm = std::max(du, dv);
   }
-  return m;
+  return out;
 }
 
 }  // namespace dg

@@ -7,6 +7,7 @@
 #include "core/parallel.h"
 #include "core/rng.h"
 #include "render/groove.h"
+#include "render/groove_area.h"
 
 namespace dg {
 
@@ -481,6 +482,12 @@ class Tracer {
     float share = 1.0f;
     groove::Section section_without;  // the section without the ending grooves (when end_share < 1)
     bool one_material = false;        // every facet shows the top material (weathered grooves)
+    // Crossings and ends: area sampling with polygons (Bosch §4.2.4, render/groove_area.h) over
+    // the footprint polygon `fp2`, in the frame (T, B, W) centred on F. The fallback above is used
+    // only when the pieces would pass groove::area::Surface's caps.
+    bool area = false;
+    groove::area::Surface surface;
+    groove::area::Poly fp2;
   };
 
   // Candidate scratches near a hit: closest points within reach of the footprint.
@@ -586,8 +593,23 @@ class Tracer {
     // One direction: the whole footprint is one section (the common case, and Bosch's).
     if (rep.size() == 1) {
       sets.emplace_back();
-      if (!buildSet(sp, near, ref, enlarge, sets.back())) sets.clear();
-      return !sets.empty();
+      if (!buildSet(sp, near, ref, enlarge, sets.back())) {
+        sets.clear();
+        return false;
+      }
+      // An end inside the footprint: polygons, unless past their caps (then the end blend).
+      if (sets.back().end_share < 1.0f && st_.groove_polygons && buildArea(sp, near, ref, enlarge, sets.back()))
+        sets.back().area = true;
+      return true;
+    }
+    // Crossings: polygons over all the grooves near the footprint.
+    if (st_.groove_polygons) {
+      sets.emplace_back();
+      if (buildArea(sp, near, ref, enlarge, sets.back())) {
+        sets.back().area = true;
+        return true;
+      }
+      sets.clear();
     }
     // Crossings: the share of the footprint where each direction's grooves are the lowest
     // surface (or, where no groove is below it, the highest pile-up), from a 4 x 4 grid of
@@ -625,6 +647,73 @@ class Tracer {
   }
 
   static bool parallel(Vec2f a, Vec2f b) { return std::fabs(a.x * b.x + a.y * b.y) >= 0.99939f; }
+
+  // The polygon surface of every groove near the footprint (crossings and ends, Bosch §4.2.4), in
+  // the frame of near[ref]. False when it cannot be built (a degenerate footprint, or more grooves
+  // or pieces than groove::area allows): the caller falls back.
+  bool buildArea(const SurfacePoint& sp, const std::vector<NearGroove>& near, size_t ref, float enlarge,
+                 GrooveSet& gs) const {
+    namespace ga = groove::area;
+    if (!grooveFrame(sp, near[ref].pp.tangent, gs.T, gs.B, gs.W)) return false;
+    gs.F = sp.p;
+    gs.fp = footprintAcross(sp, gs.B);
+    const double mm = sp.mm_per_uv;
+    // The pixel's parallelogram on the base plane.
+    Vec2d a1(dot(sp.dpdx, gs.T), dot(sp.dpdx, gs.B)), a2(dot(sp.dpdy, gs.T), dot(sp.dpdy, gs.B));
+    ga::Poly& fp = gs.fp2;
+    fp = ga::Poly();
+    fp.push((a1 + a2) * -0.5);
+    fp.push((a1 - a2) * 0.5);
+    fp.push((a1 + a2) * 0.5);
+    fp.push((a2 - a1) * 0.5);
+    if (fp.area() < 0) std::reverse(fp.v.begin(), fp.v.begin() + fp.n);
+    if (!(fp.area() > 1e-16)) return false;
+    double x0 = 1e30, x1 = -1e30, y0 = 1e30, y1 = -1e30;
+    for (int i = 0; i < fp.n; ++i) {
+      x0 = std::min(x0, fp.v[size_t(i)].x);
+      x1 = std::max(x1, fp.v[size_t(i)].x);
+      y0 = std::min(y0, fp.v[size_t(i)].y);
+      y1 = std::max(y1, fp.v[size_t(i)].y);
+    }
+    // The region whose surface can be seen, or can hide or shadow what is seen (§4.2.1).
+    const double R = double(enlarge) + 1e-3;
+    ga::Poly region;
+    region.push({x0 - R, y0 - R});
+    region.push({x1 + R, y0 - R});
+    region.push({x1 + R, y1 + R});
+    region.push({x0 - R, y1 + R});
+    thread_local std::vector<Profile> profiles;
+    thread_local std::vector<ga::Groove> grooves;
+    profiles.clear();
+    grooves.clear();
+    profiles.reserve(near.size());
+    for (size_t i = 0; i < near.size(); ++i) {
+      const NearGroove& ng = near[i];
+      float k = ng.sc->scaleAt(ng.pp.s);
+      if (!(k > 0)) continue;
+      Vec3f Ti, Bi, Wi;
+      if (!grooveFrame(sp, ng.pp.tangent, Ti, Bi, Wi)) continue;
+      profiles.push_back(surfaceProfile(ng, float(mm)));
+      ga::Groove g;
+      g.tdir = Vec2d(dot(Ti, gs.T), dot(Ti, gs.B));
+      g.bdir = Vec2d(dot(Bi, gs.T), dot(Bi, gs.B));
+      Vec2f rel = sp.uv - ng.pp.point;
+      g.t0 = double(rel.x * ng.pp.tangent.x + rel.y * ng.pp.tangent.y) * mm;
+      g.b0 = double(ng.pp.offset) * mm;
+      // The force fade: the scale's relative slope along the path (per mm of surface).
+      const double len = ng.sc->path().length(), ds = 1e-3;
+      double s0 = std::max(0.0, double(ng.pp.s) - ds), s1 = std::min(len, double(ng.pp.s) + ds);
+      if (s1 > s0) g.rho = (double(ng.sc->scaleAt(float(s1))) - ng.sc->scaleAt(float(s0))) / ((s1 - s0) * k * mm);
+      g.t_lo = -double(ng.pp.s) * mm;
+      g.t_hi = (len - double(ng.pp.s)) * mm;
+      g.pts = &profiles.back().pts;
+      g.layer = &profiles.back().layer;
+      g.id = int(i);
+      grooves.push_back(g);
+    }
+    if (grooves.empty()) return false;
+    return gs.surface.build(region, grooves);
+  }
 
   // The section of the grooves parallel to near[ref] (within 2 degrees), in its frame.
   bool buildSet(const SurfacePoint& sp, const std::vector<NearGroove>& near, size_t ref, float enlarge,
@@ -690,6 +779,40 @@ class Tracer {
     int k;         // its index among the light's stratified samples
   };
 
+  // The two ways of integrating over a footprint share the shading below (shadeLevel); they
+  // differ in their geometry, given by these policies: the facet normal and layer of a portion,
+  // its lit fraction for light sample li, and where rays leaving it in a direction go.
+  // 1-D line sampling over one merged section (Bosch §4.2.3).
+  struct LineGeometry {
+    using Portion = groove::Portion;
+    const GrooveSet& gs;
+    const groove::Section& sec;
+    const std::vector<groove::Shadowing>& shadow;  // per light sample
+    Vec3f normal(const Portion& p) const {
+      Vec2d n2 = sec.normal(size_t(p.facet));
+      return gs.B * float(n2.x) + gs.W * float(n2.y);
+    }
+    int layer(const Portion& p) const { return sec.layer[size_t(p.facet)]; }
+    double lit(const Portion& p, size_t li) const { return shadow[li].litFraction(p, gs.fp); }
+    groove::Scatter scatter(const Portion& p, Vec3f d) const {
+      return groove::scatter(sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
+    }
+  };
+  // Area sampling with polygons at crossings and ends (Bosch §4.2.4).
+  struct AreaGeometry {
+    using Portion = groove::area::Portion;
+    const GrooveSet& gs;
+    const std::vector<Vec3d>& light;  // per light sample, in (T, B, W)
+    Vec3d local(Vec3f d) const { return Vec3d(dot(d, gs.T), dot(d, gs.B), dot(d, gs.W)); }
+    Vec3f normal(const Portion& p) const {
+      Vec3d n = gs.surface.pieces()[size_t(p.piece)].plane.normal();
+      return normalize(gs.T * float(n.x) + gs.B * float(n.y) + gs.W * float(n.z));
+    }
+    int layer(const Portion& p) const { return gs.surface.pieces()[size_t(p.piece)].layer; }
+    double lit(const Portion& p, size_t li) const { return gs.surface.litFraction(p, light[li]); }
+    groove::area::Hits scatter(const Portion& p, Vec3f d) const { return gs.surface.scatter(p, local(d)); }
+  };
+
   // Reflected radiance of the footprint over a section (direct light on every visible facet
   // portion with exact masking and shadowing, and inter-reflection by recursion on portions).
   Rgb shadeSection(const GrooveSet& gs, const groove::Section& sec, const Material& top, Vec3f wo_w,
@@ -700,15 +823,36 @@ class Tracer {
     std::vector<groove::Shadowing> shadow;
     shadow.reserve(ls.size());
     for (const LightSample& l : ls) shadow.emplace_back(sec, Vec2d(dot(l.wl, gs.B), dot(l.wl, gs.W)));
-    return shadeLevel(gs, sec, top, portions, wo_w, Rgb(1.0f), 0, ls, shadow, rng, nrays);
+    return shadeLevel(LineGeometry{gs, sec, shadow}, top, portions, wo_w, Rgb(1.0f), 0, ls, rng, nrays);
+  }
+
+  // The same over the polygon surface of a crossing or an end. The visible shares are normalised
+  // to 1 (the steep walls where a groove's edge meets another's pile-up are not seen; they take
+  // a fraction of a percent at oblique views).
+  Rgb shadeArea(const GrooveSet& gs, const Material& top, Vec3f wo_w, const std::vector<LightSample>& ls, Rng& rng,
+                uint64_t& nrays) const {
+    thread_local std::vector<Vec3d> light;
+    light.clear();
+    for (const LightSample& l : ls) light.push_back(Vec3d(dot(l.wl, gs.T), dot(l.wl, gs.B), dot(l.wl, gs.W)));
+    AreaGeometry geo{gs, light};
+    std::vector<groove::area::Portion> portions = gs.surface.visible(gs.fp2, geo.local(wo_w));
+    double wsum = 0;
+    for (const auto& p : portions) wsum += p.weight;
+    if (!(wsum > 0)) return Rgb(0.0f);
+    for (auto& p : portions) {
+      p.weight /= wsum;
+      p.density /= wsum;
+    }
+    return shadeLevel(geo, top, portions, wo_w, Rgb(1.0f), 0, ls, rng, nrays);
   }
 
   // One level of the recursion: `portions` carry absolute footprint weights, seen from direction
   // wo_w, with throughput beta per unit weight.
-  Rgb shadeLevel(const GrooveSet& gs, const groove::Section& sec, const Material& top,
-                 const std::vector<groove::Portion>& portions, Vec3f wo_w, Rgb beta, int level,
-                 const std::vector<LightSample>& ls, const std::vector<groove::Shadowing>& shadow, Rng& rng,
+  template <class Geometry>
+  Rgb shadeLevel(const Geometry& geo, const Material& top, const std::vector<typename Geometry::Portion>& portions,
+                 Vec3f wo_w, Rgb beta, int level, const std::vector<LightSample>& ls, Rng& rng,
                  uint64_t& nrays) const {
+    const GrooveSet& gs = geo.gs;
     const int nl = st_.groove_light_samples;
     // Directions sampled from the footprint at the first level (stratified over the portions);
     // deeper levels follow one.
@@ -727,9 +871,8 @@ class Tracer {
     if (!(wsum > 0)) return L;
     // Direct light on every portion, MIS against nb BSDF samples.
     for (const auto& p : portions) {
-      Vec2d n2 = sec.normal(size_t(p.facet));
-      Vec3f N = gs.B * float(n2.x) + gs.W * float(n2.y);
-      const Material& m = facetMaterial(gs, sec.layer[size_t(p.facet)], top);
+      Vec3f N = geo.normal(p);
+      const Material& m = facetMaterial(gs, geo.layer(p), top);
       Frame fr = Frame::fromNormalTangent(N, gs.T);
       Vec3f wo = fr.toLocal(wo_w);
       if (wo.z <= 0) continue;
@@ -739,7 +882,7 @@ class Tracer {
         if (!l.visible || (nsub > 1 && (l.k % nq + l.k / nq) % nsub != off)) continue;
         Vec3f wi = fr.toLocal(l.wl);
         if (wi.z <= 0) continue;
-        double lit = shadow[li].litFraction(p, gs.fp);
+        double lit = geo.lit(p, li);
         if (!(lit > 0)) continue;
         Rgb f = bsdf.eval(wi);
         float w = powerHeuristic(nl_eff * l.pdf, nb * bsdf.pdf(wi));
@@ -777,11 +920,10 @@ class Tracer {
           break;
         }
       }
-      const groove::Portion& p = portions[pick];
+      const auto& p = portions[pick];
       if (!(p.weight > 0)) continue;
-      Vec2d n2 = sec.normal(size_t(p.facet));
-      Vec3f N = gs.B * float(n2.x) + gs.W * float(n2.y);
-      const Material& m = facetMaterial(gs, sec.layer[size_t(p.facet)], top);
+      Vec3f N = geo.normal(p);
+      const Material& m = facetMaterial(gs, geo.layer(p), top);
       Frame fr = Frame::fromNormalTangent(N, gs.T);
       Vec3f wo = fr.toLocal(wo_w);
       BsdfSample bs;
@@ -793,7 +935,7 @@ class Tracer {
       Vec3f d = fr.toWorld(bs.wi);
       Rgb ratio = bs.f * (bs.wi.z / bs.pdf);
       if (!isFinite(ratio) || maxComponent(ratio) <= 0) continue;
-      groove::Scatter sc = groove::scatter(sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
+      auto sc = geo.scatter(p, d);
       Rgb beta_next = beta * ratio * float(wsum / (p.weight * nb));
       if (sc.escaped > 0 && dot(d, gs.W) > 0) {
         DiffRay r;
@@ -802,7 +944,7 @@ class Tracer {
         r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
         L += continuePath(r, beta_next * float(sc.escaped), nb * bs.pdf, false, origin, 1 + level, rng, nrays, nl_eff);
       }
-      if (!last && !sc.hits.empty()) L += shadeLevel(gs, sec, top, sc.hits, -d, beta_next, level + 1, ls, shadow, rng, nrays);
+      if (!last && !sc.hits.empty()) L += shadeLevel(geo, top, sc.hits, -d, beta_next, level + 1, ls, rng, nrays);
     }
     return L;
   }
@@ -841,6 +983,10 @@ class Tracer {
       }
     Rgb L(0.0f);
     for (const GrooveSet& set : sets) {
+      if (set.area) {
+        L += shadeArea(set, top, wo_w, ls, rng, nrays) * set.share;
+        continue;
+      }
       Rgb Ls = shadeSection(set, set.section, top, wo_w, ls, rng, nrays);
       if (set.end_share < 1.0f) {
         Rgb L0 = shadeSection(set, set.section_without, top, wo_w, ls, rng, nrays);

@@ -61,6 +61,9 @@ struct RenderSettings {
   // low-angle bar light was the groove renderer's largest error: 8 gave 0.60% of pixels >= 10
   // against the converged reference on the parallel/bar scene at 4 spp, 32 gave 0.08%.
   int groove_bsdf_samples = 32;
+  // Crossings and ends by area sampling with polygons (Bosch §4.2.4); false: the direction-share
+  // and end-share blend that is otherwise only the fallback past the polygons' caps.
+  bool groove_polygons = true;
   // With groove shading on, BSDF directions at every other camera hit, each continued as its own
   // path: glossy surfaces lit by wide lights converge alike on and off the grooves. At most
   // camera_hit_bsdf_samples (and 64) per camera sample, and no more than camera_hit_bsdf_per_pixel

@@ -1,0 +1,512 @@
+#include "render/groove_area.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace dg::groove::area {
+
+double Poly::area() const {
+  double a = 0;
+  for (int i = 0; i < n; ++i) {
+    const Vec2d& p = v[size_t(i)];
+    const Vec2d& q = v[size_t((i + 1) % n)];
+    a += p.x * q.y - q.x * p.y;
+  }
+  return 0.5 * a;
+}
+
+Vec2d Poly::centroid() const {
+  Vec2d c(0, 0);
+  for (int i = 0; i < n; ++i) c = c + v[size_t(i)];
+  return n > 0 ? c / double(n) : c;
+}
+
+Poly clip(const Poly& p, Vec2d a, double c, bool strict) {
+  Poly out;
+  if (p.n == 0) return out;
+  if (std::fabs(a.x) + std::fabs(a.y) < 1e-12) {
+    // A constant: all or nothing (ties between identical planes go by `strict`).
+    bool keep = strict ? c < -1e-13 : c <= 1e-13;
+    return keep ? p : out;
+  }
+  for (int i = 0; i < p.n; ++i) {
+    const Vec2d& s = p.v[size_t(i)];
+    const Vec2d& e = p.v[size_t((i + 1) % p.n)];
+    double fs = a.x * s.x + a.y * s.y + c, fe = a.x * e.x + a.y * e.y + c;
+    if (fs <= 0) out.push(s);
+    if ((fs < 0 && fe > 0) || (fs > 0 && fe < 0)) {
+      double t = fs / (fs - fe);
+      out.push(s + (e - s) * t);
+    }
+  }
+  if (out.n < 3) out.n = 0;
+  return out;
+}
+
+namespace {
+
+// The half-plane left of the directed edge a -> b (the inside of a counter-clockwise polygon) as
+// (n, c) with n.p + c <= 0 inside.
+inline void edgeHalfPlane(Vec2d a, Vec2d b, Vec2d& n, double& c) {
+  n = Vec2d(b.y - a.y, a.x - b.x);  // outward normal of a counter-clockwise edge
+  c = -(n.x * a.x + n.y * a.y);
+}
+
+struct BBox {
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  explicit BBox(const Poly& p) {
+    for (int i = 0; i < p.n; ++i) {
+      x0 = std::min(x0, p.v[size_t(i)].x);
+      x1 = std::max(x1, p.v[size_t(i)].x);
+      y0 = std::min(y0, p.v[size_t(i)].y);
+      y1 = std::max(y1, p.v[size_t(i)].y);
+    }
+  }
+  bool overlaps(const BBox& o) const { return x0 <= o.x1 && o.x0 <= x1 && y0 <= o.y1 && o.y0 <= y1; }
+};
+
+void reverse(Poly& p) { std::reverse(p.v.begin(), p.v.begin() + p.n); }
+
+// Below this (mm^2) a piece or fragment is dropped as a sliver.
+constexpr double kSliver = 1e-16;
+
+}  // namespace
+
+Poly intersect(const Poly& p, const Poly& q) {
+  Poly r = p;
+  for (int i = 0; i < q.n && !r.empty(); ++i) {
+    Vec2d n;
+    double c;
+    edgeHalfPlane(q.v[size_t(i)], q.v[size_t((i + 1) % q.n)], n, c);
+    if (std::fabs(n.x) + std::fabs(n.y) < 1e-12) continue;  // a degenerate edge bounds nothing
+    r = clip(r, n, c);
+  }
+  return r;
+}
+
+Vec3d Plane::normal() const {
+  Vec3d n(-g.x, -g.y, 1.0);
+  return n / length(n);
+}
+
+double area(const std::vector<Poly>& frags) {
+  double a = 0;
+  for (const Poly& f : frags) a += f.area();
+  return a;
+}
+
+void subtract(std::vector<Poly>& frags, const Poly& s, size_t cap, size_t& dropped) {
+  if (s.empty()) return;
+  const BBox sb(s);
+  std::vector<Poly> out;
+  out.reserve(frags.size() + 4);
+  for (const Poly& f : frags) {
+    if (!BBox(f).overlaps(sb)) {
+      out.push_back(f);
+      continue;
+    }
+    // f minus s: the parts of f outside each edge of s in turn, then what is left is inside s.
+    Poly rest = f;
+    for (int i = 0; i < s.n && !rest.empty(); ++i) {
+      Vec2d n;
+      double c;
+      edgeHalfPlane(s.v[size_t(i)], s.v[size_t((i + 1) % s.n)], n, c);
+      if (std::fabs(n.x) + std::fabs(n.y) < 1e-12) continue;  // a degenerate edge bounds nothing
+      Poly outside = clip(rest, n * -1.0, -c);
+      if (!outside.empty() && outside.area() > kSliver) out.push_back(outside);
+      rest = clip(rest, n, c);
+    }
+  }
+  if (out.size() > cap) {
+    std::nth_element(out.begin(), out.begin() + long(cap), out.end(),
+                     [](const Poly& a, const Poly& b) { return a.area() > b.area(); });
+    dropped += out.size() - cap;
+    out.resize(cap);
+  }
+  frags.swap(out);
+}
+
+// ------------------------------------------------------------------------------------------------
+// Building the pieces
+// ------------------------------------------------------------------------------------------------
+
+namespace {
+
+struct HalfPlane {
+  Vec2d a;
+  double c;
+  bool strict;
+};
+
+// A zone of one groove: where its height is one plane (zero outside its facets).
+struct Zone {
+  HalfPlane h[6];
+  int nh = 0;
+  Plane plane;
+  int layer = 0;
+  bool zero = true;
+  void add(Vec2d a, double c) { h[nh++] = {a, c, false}; }
+};
+
+void zonesOf(const Groove& g, std::vector<Zone>& zones) {
+  zones.clear();
+  const std::vector<Vec2d>& P = *g.pts;
+  const bool has_lo = g.t_lo > -1e29, has_hi = g.t_hi < 1e29;
+  // t(p) = t0 + tdir.p; b(p) = b0 + bdir.p; r(p) = 1 + rho t(p).
+  if (has_lo) {  // before the start: t <= t_lo
+    Zone z;
+    z.add(g.tdir, g.t0 - g.t_lo);
+    zones.push_back(z);
+  }
+  if (has_hi) {  // past the end: t >= t_hi
+    Zone z;
+    z.add(g.tdir * -1.0, g.t_hi - g.t0);
+    zones.push_back(z);
+  }
+  Zone inside;  // t_lo <= t <= t_hi
+  if (has_lo) inside.add(g.tdir * -1.0, g.t_lo - g.t0);
+  if (has_hi) inside.add(g.tdir, g.t0 - g.t_hi);
+  {  // r <= 0: the cross-section has faded out
+    Zone z = inside;
+    z.add(g.tdir * g.rho, 1 + g.rho * g.t0);
+    zones.push_back(z);
+  }
+  inside.add(g.tdir * -g.rho, -(1 + g.rho * g.t0));  // r >= 0
+  // b >= r x_j  <=>  -(bdir - x_j rho tdir).p - (b0 - x_j (1 + rho t0)) <= 0
+  auto vertexLine = [&](double xj, bool right_of, Zone& z) {
+    Vec2d a = g.bdir - g.tdir * (xj * g.rho);
+    double c = g.b0 - xj * (1 + g.rho * g.t0);
+    if (right_of)
+      z.add(a * -1.0, -c);
+    else
+      z.add(a, c);
+  };
+  {
+    Zone z = inside;
+    vertexLine(P.front().x, false, z);
+    zones.push_back(z);
+  }
+  for (size_t j = 0; j + 1 < P.size(); ++j) {
+    double dx = P[j + 1].x - P[j].x;
+    if (!(dx > 1e-12)) continue;  // a vertical facet covers no area
+    double s = (P[j + 1].y - P[j].y) / dx;
+    double cj = P[j].y - s * P[j].x;
+    if (cj == 0 && s == 0) continue;  // a flat facet on the base plane: part of the zero zones
+    Zone z = inside;
+    vertexLine(P[j].x, true, z);
+    vertexLine(P[j + 1].x, false, z);
+    // h = r c_j + s b = c_j (1 + rho t0) + s b0 + (c_j rho tdir + s bdir).p
+    z.plane.z0 = cj * (1 + g.rho * g.t0) + s * g.b0;
+    z.plane.g = g.tdir * (cj * g.rho) + g.bdir * s;
+    z.layer = g.layer && j < g.layer->size() ? (*g.layer)[j] : 0;
+    z.zero = false;
+    zones.push_back(z);
+  }
+  // Flat facets inside the profile are left out above, so the zero zones are: before, after,
+  // faded, left of the first vertex, right of the last, and (implicitly) flat facets. Those are
+  // added as one more zone per flat facet so that the zones tile the plane.
+  for (size_t j = 0; j + 1 < P.size(); ++j) {
+    double dx = P[j + 1].x - P[j].x;
+    if (!(dx > 1e-12)) continue;
+    double s = (P[j + 1].y - P[j].y) / dx;
+    double cj = P[j].y - s * P[j].x;
+    if (!(cj == 0 && s == 0)) continue;
+    Zone z = inside;
+    vertexLine(P[j].x, true, z);
+    vertexLine(P[j + 1].x, false, z);
+    zones.push_back(z);
+  }
+  {
+    Zone z = inside;
+    vertexLine(P.back().x, true, z);
+    zones.push_back(z);
+  }
+}
+
+}  // namespace
+
+double Surface::heightAt(Vec2d p) const {
+  double lo = 0, hi = 0;
+  for (const Groove& g : grooves_) {
+    double t = g.t0 + g.tdir.x * p.x + g.tdir.y * p.y;
+    double r = 1 + g.rho * t;
+    if (t < g.t_lo || t > g.t_hi || !(r > 0)) continue;
+    double u = (g.b0 + g.bdir.x * p.x + g.bdir.y * p.y) / r;
+    const std::vector<Vec2d>& P = *g.pts;
+    if (u <= P.front().x || u >= P.back().x) continue;
+    size_t j = size_t(std::upper_bound(P.begin(), P.end(), u, [](double x, const Vec2d& q) { return x < q.x; }) - P.begin());
+    j = std::min(std::max<size_t>(j, 1), P.size() - 1);
+    const Vec2d &q0 = P[j - 1], &q1 = P[j];
+    double h = q1.x > q0.x ? r * (q0.y + (q1.y - q0.y) * (u - q0.x) / (q1.x - q0.x)) : r * q0.y;
+    lo = std::min(lo, h);
+    hi = std::max(hi, h);
+  }
+  return lo < 0 ? lo : hi;
+}
+
+bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
+  pieces_.clear();
+  walls_.clear();
+  grooves_ = grooves;
+  constexpr size_t kMaxGrooves = 8;
+  if (grooves.size() > kMaxGrooves) return false;
+  struct Cell {
+    Poly poly;
+    Plane f[kMaxGrooves];
+    int layer[kMaxGrooves];
+    bool zero[kMaxGrooves];
+  };
+  std::vector<Cell> cells(1), next;
+  cells[0].poly = region;
+  std::vector<Zone> zones;
+  const size_t cell_cap = 4 * kMaxPieces;
+  for (size_t gi = 0; gi < grooves.size(); ++gi) {
+    zonesOf(grooves[gi], zones);
+    next.clear();
+    for (const Cell& c : cells)
+      for (const Zone& z : zones) {
+        Poly p = c.poly;
+        for (int k = 0; k < z.nh && !p.empty(); ++k) p = clip(p, z.h[k].a, z.h[k].c);
+        if (p.empty() || p.area() <= kSliver) continue;
+        if (next.size() >= cell_cap) return false;
+        next.push_back(c);
+        Cell& n = next.back();
+        n.poly = p;
+        n.f[gi] = z.plane;
+        n.layer[gi] = z.layer;
+        n.zero[gi] = z.zero;
+      }
+    cells.swap(next);
+  }
+  // In each cell every groove's height is one plane f_i (f = 0 for the base). The composite is the
+  // lowest f_i where one is below 0, else the highest: cut the cell where each f_a wins, with ties
+  // (identical planes) going to the lower index, the base first.
+  const size_t G = grooves.size();
+  for (const Cell& c : cells) {
+    auto diff = [&](const Plane& x, const Plane& y) { return std::make_pair(x.g - y.g, x.z0 - y.z0); };
+    const Plane zero;
+    for (size_t a = 0; a <= G; ++a) {
+      if (a > 0 && c.zero[a - 1]) continue;  // a zero plane never wins over the base
+      const Plane& fa = a == 0 ? zero : c.f[a - 1];
+      // Case "below": f_a < 0 and f_a lowest (only grooves can be below the base).
+      if (a > 0) {
+        Poly p = clip(c.poly, fa.g, fa.z0, true);
+        for (size_t j = 1; j <= G && !p.empty(); ++j) {
+          if (j == a) continue;
+          auto [g, k] = diff(fa, c.f[j - 1]);  // f_a - f_j <= 0 (< 0 for j < a)
+          p = clip(p, g, k, j < a);
+        }
+        if (!p.empty() && p.area() > kSliver) {
+          if (pieces_.size() >= kMaxPieces) return false;
+          pieces_.push_back({p, fa, grooves[a - 1].id, c.layer[a - 1]});
+        }
+      }
+      // Case "above": every f_j >= 0 and f_a highest.
+      Poly p = c.poly;
+      for (size_t j = 1; j <= G && !p.empty(); ++j) p = clip(p, c.f[j - 1].g * -1.0, -c.f[j - 1].z0);
+      for (size_t j = 0; j <= G && !p.empty(); ++j) {
+        if (j == a) continue;
+        const Plane& fj = j == 0 ? zero : c.f[j - 1];
+        auto [g, k] = diff(fj, fa);  // f_j - f_a <= 0 (< 0 for j < a)
+        p = clip(p, g, k, j < a);
+      }
+      if (!p.empty() && p.area() > kSliver) {
+        if (pieces_.size() >= kMaxPieces) return false;
+        pieces_.push_back({p, fa, a == 0 ? -1 : grooves[a - 1].id, a == 0 ? 0 : c.layer[a - 1]});
+      }
+    }
+  }
+  // Steps of the composite: along every piece edge, the surface just outside higher than the
+  // piece. Each wall is found once, from its low side.
+  constexpr double kStep = 1e-9;  // mm outside the edge
+  constexpr double kTall = 1e-7;  // mm: lower steps are a slope over kStep, or rounding
+  for (const Piece& pc : pieces_)
+    for (int k = 0; k < pc.poly.n; ++k) {
+      Vec2d e0 = pc.poly.v[size_t(k)], e1 = pc.poly.v[size_t((k + 1) % pc.poly.n)];
+      Vec2d t = e1 - e0;
+      double len = std::sqrt(t.x * t.x + t.y * t.y);
+      if (!(len > 1e-9)) continue;
+      Vec2d n(t.y / len, -t.x / len);  // outward (the piece is counter-clockwise)
+      Vec2d m = (e0 + e1) * 0.5;
+      if (!(heightAt(m + n * kStep) > pc.plane.at(m) + kTall)) continue;
+      double h0 = heightAt(e0 + n * kStep + t * (kStep / len)), h1 = heightAt(e1 + n * kStep - t * (kStep / len));
+      walls_.push_back({e0, e1, pc.plane.at(e0), pc.plane.at(e1), std::max(h0, pc.plane.at(e0)),
+                        std::max(h1, pc.plane.at(e1)), n * -1.0});
+    }
+  return true;
+}
+
+// ------------------------------------------------------------------------------------------------
+// Masking, shadowing and inter-reflection
+// ------------------------------------------------------------------------------------------------
+
+namespace {
+// N.d up to a positive factor (N = (-g, 1)).
+inline double facing(const Plane& p, Vec3d d) { return d.z - p.g.x * d.x - p.g.y * d.y; }
+}  // namespace
+
+void Surface::shadowsOn(size_t pi, Vec3d d, std::vector<Poly>& out, std::vector<double>* dist,
+                        std::vector<size_t>* owner) const {
+  out.clear();
+  if (dist) dist->clear();
+  if (owner) owner->clear();
+  const Plane& P = pieces_[pi].plane;
+  const double den = facing(P, d);  // > 0: P faces d
+  if (!(den > 0)) return;
+  for (size_t qi = 0; qi < pieces_.size(); ++qi) {
+    const Piece& Q = pieces_[qi];
+    if (!(facing(Q.plane, d) < 0)) continue;  // only pieces facing away from d block it
+    // The part of Q on the d-side of P's plane: Q(p) - P(p) >= 0.
+    Poly q = clip(Q.poly, P.g - Q.plane.g, P.z0 - Q.plane.z0);
+    if (q.empty()) continue;
+    // Projected along d onto P's plane: p' = p - lambda d_xy, lambda = (Q(p) - P(p)) / den.
+    Poly s;
+    double lc = 0;
+    for (int i = 0; i < q.n; ++i) {
+      Vec2d p = q.v[size_t(i)];
+      double lambda = (Q.plane.at(p) - P.at(p)) / den;
+      lc += lambda;
+      s.push(Vec2d(p.x - lambda * d.x, p.y - lambda * d.y));
+    }
+    // The projection from a plane facing away from d onto one facing it flips the orientation.
+    if (s.area() < 0) reverse(s);
+    if (s.empty() || s.area() <= kSliver) continue;
+    out.push_back(s);
+    if (dist) dist->push_back(lc / q.n);
+    if (owner) owner->push_back(qi);
+  }
+  // Walls block the rays that cross them from the low side (out . d < 0).
+  for (size_t wi = 0; wi < walls_.size(); ++wi) {
+    const Wall& w = walls_[wi];
+    if (!(w.out.x * d.x + w.out.y * d.y < 0)) continue;
+    // The quad in 3-D, clipped to the d-side of P's plane (z - P(x, y) >= 0), then projected.
+    Vec3d quad[4] = {{w.a.x, w.a.y, w.za0}, {w.b.x, w.b.y, w.zb0}, {w.b.x, w.b.y, w.zb1}, {w.a.x, w.a.y, w.za1}};
+    Vec3d kept[8];
+    int nk = 0;
+    for (int i = 0; i < 4; ++i) {
+      const Vec3d& s0 = quad[i];
+      const Vec3d& s1 = quad[(i + 1) % 4];
+      double f0 = s0.z - P.at({s0.x, s0.y}), f1 = s1.z - P.at({s1.x, s1.y});
+      if (f0 >= 0) kept[nk++] = s0;
+      if ((f0 < 0 && f1 > 0) || (f0 > 0 && f1 < 0)) kept[nk++] = s0 + (s1 - s0) * (f0 / (f0 - f1));
+    }
+    if (nk < 3) continue;
+    Poly s;
+    double lc = 0;
+    for (int i = 0; i < nk; ++i) {
+      double lambda = (kept[i].z - P.at({kept[i].x, kept[i].y})) / den;
+      lc += lambda;
+      s.push(Vec2d(kept[i].x - lambda * d.x, kept[i].y - lambda * d.y));
+    }
+    if (s.area() < 0) reverse(s);
+    if (s.empty() || s.area() <= kSliver) continue;
+    out.push_back(s);
+    if (dist) dist->push_back(lc / nk);
+    if (owner) owner->push_back(pieces_.size() + wi);
+  }
+}
+
+std::vector<Portion> Surface::visible(const Poly& fp, Vec3d e) const {
+  std::vector<Portion> out;
+  const double afp = std::fabs(fp.area());
+  if (!(afp > 0) || !(e.z > 0)) return out;
+  Vec2d exy(e.x / e.z, e.y / e.z);
+  std::vector<Poly> shadows;
+  for (size_t pi = 0; pi < pieces_.size(); ++pi) {
+    const Piece& P = pieces_[pi];
+    // A point p of P is seen through the base-plane point u = p - P(p) e_xy / e_z, i.e.
+    // M p = u + z0 e_xy / e_z with M = I - e_xy g^T / e_z; det M > 0 when P faces the viewer.
+    double m00 = 1 - exy.x * P.plane.g.x, m01 = -exy.x * P.plane.g.y;
+    double m10 = -exy.y * P.plane.g.x, m11 = 1 - exy.y * P.plane.g.y;
+    double det = m00 * m11 - m01 * m10;
+    if (!(det > 1e-9)) continue;
+    Poly f;
+    for (int i = 0; i < fp.n; ++i) {
+      Vec2d u = fp.v[size_t(i)] + exy * P.plane.z0;
+      f.push(Vec2d((m11 * u.x - m01 * u.y) / det, (-m10 * u.x + m00 * u.y) / det));
+    }
+    if (f.area() < 0) reverse(f);
+    Poly frag = intersect(P.poly, f);
+    if (frag.empty() || frag.area() <= kSliver) continue;
+    Portion por;
+    por.piece = int(pi);
+    por.frags.push_back(frag);
+    shadowsOn(pi, e, shadows, nullptr, nullptr);
+    for (const Poly& s : shadows) {
+      subtract(por.frags, s, kMaxFragments, overflow);
+      if (por.frags.empty()) break;
+    }
+    por.density = det / afp;
+    por.weight = por.density * area(por.frags);
+    if (por.weight > 0) out.push_back(std::move(por));
+  }
+  return out;
+}
+
+double Surface::litFraction(const Portion& p, Vec3d l) const {
+  const Piece& P = pieces_[size_t(p.piece)];
+  if (!(facing(P.plane, l) > 0)) return 0.0;
+  double a0 = area(p.frags);
+  if (!(a0 > 0)) return 0.0;
+  thread_local std::vector<Poly> shadows, frags;
+  shadowsOn(size_t(p.piece), l, shadows, nullptr, nullptr);
+  frags = p.frags;
+  for (const Poly& s : shadows) {
+    subtract(frags, s, kMaxFragments, overflow);
+    if (frags.empty()) return 0.0;
+  }
+  return std::min(1.0, area(frags) / a0);
+}
+
+Hits Surface::scatter(const Portion& p, Vec3d d) const {
+  Hits h;
+  const Piece& P = pieces_[size_t(p.piece)];
+  if (!(facing(P.plane, d) > 0)) return h;
+  std::vector<Poly> shadows;
+  std::vector<double> dist;
+  std::vector<size_t> owner;
+  shadowsOn(size_t(p.piece), d, shadows, &dist, &owner);
+  std::vector<size_t> order(shadows.size());
+  std::iota(order.begin(), order.end(), size_t(0));
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return dist[a] < dist[b]; });
+  std::vector<Poly> rest = p.frags;
+  for (size_t k : order) {
+    if (rest.empty()) break;
+    const Poly& s = shadows[k];
+    if (owner[k] >= pieces_.size()) {  // a wall: what it catches is not followed (see walls())
+      subtract(rest, s, kMaxFragments, overflow);
+      continue;
+    }
+    const Piece& Q = pieces_[owner[k]];
+    const double den = facing(Q.plane, d);  // < 0
+    Portion hit;
+    hit.piece = int(owner[k]);
+    double claimed = 0, mapped = 0;
+    for (const Poly& f : rest) {
+      Poly c = intersect(f, s);
+      if (c.empty() || c.area() <= kSliver) continue;
+      claimed += c.area();
+      // Along d from P onto Q: p + mu d_xy with mu = (Q(p) - P(p)) / den_Q.
+      Poly m;
+      for (int i = 0; i < c.n; ++i) {
+        Vec2d q = c.v[size_t(i)];
+        double mu = (Q.plane.at(q) - P.plane.at(q)) / den;
+        m.push(Vec2d(q.x + mu * d.x, q.y + mu * d.y));
+      }
+      if (m.area() < 0) reverse(m);
+      if (m.empty()) continue;
+      mapped += m.area();
+      hit.frags.push_back(m);
+    }
+    if (!(claimed > 0) || !(mapped > 0)) continue;
+    subtract(rest, s, kMaxFragments, overflow);
+    hit.weight = p.density * claimed;
+    hit.density = hit.weight / mapped;
+    h.hits.push_back(std::move(hit));
+  }
+  h.escaped = p.density * area(rest);
+  return h;
+}
+
+}  // namespace dg::groove::area

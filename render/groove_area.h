@@ -1,0 +1,149 @@
+// Area sampling of grooves with polygons, for the footprints that 1-D line sampling cannot
+// integrate: crossings and ends (Bosch 2007 §4.2.4; shared/reference/bosch-grooves.md §2.2.4).
+// Pure geometry in doubles, no renderer types, like render/groove.h.
+//
+// Coordinates are footprint-centred: x along the first groove's T, y along its B, z along the
+// surface normal W (mm). Near one footprint every groove is straight (its tangent line, digest
+// §1.7), its cross-section scales linearly along it (the force fade) and it may end. The composite
+// surface (the lower surface where a groove cuts below the base, else the highest pile-up: the
+// rule of the explicit-geometry reference) is then piecewise planar: `Surface` cuts a convex
+// region into convex pieces, each lying on one facet of one groove (or on the base plane).
+//
+// On those pieces Bosch's per-facet steps become clipping of convex polygons:
+//  - the footprint projected onto a piece along the view, clipped to the piece (step 1);
+//  - the removal of what intersecting grooves cut away is already in the pieces (step 2);
+//  - masking and shadowing (step 3): a point of piece P is hidden along a direction d when the
+//    ray towards d enters the solid, i.e. crosses a piece Q facing away from d (N_Q.d < 0) on the
+//    d-side of P's plane. So the hidden part is the union of those Q's projections along d onto
+//    P's plane, each a convex polygon, subtracted from the portion;
+//  - the reflected share (step 4) is the remaining area's share of the footprint;
+//  - inter-reflection (§4.3): the rays leaving a portion along d hit the facing pieces in order of
+//    distance; each claims the part of the portion under its projection, mapped onto itself.
+// Differences of convex polygons are kept as lists of convex fragments. The number of fragments
+// of one portion is capped (kMaxFragments); past it the smallest are dropped (`overflow` counts
+// it), so the cost per footprint stays bounded.
+#pragma once
+#include <array>
+#include <cstddef>
+#include <vector>
+
+#include "core/math.h"
+
+namespace dg::groove::area {
+
+// A convex polygon in the plane, counter-clockwise, with at most kMaxVertices vertices.
+struct Poly {
+  static constexpr int kMaxVertices = 40;
+  std::array<Vec2d, kMaxVertices> v;
+  int n = 0;
+  bool empty() const { return n < 3; }
+  double area() const;  // signed (> 0 counter-clockwise)
+  Vec2d centroid() const;
+  void push(Vec2d p) {
+    if (n < kMaxVertices) v[size_t(n++)] = p;
+  }
+};
+
+// The part of p where a.x * x + a.y * y + c <= 0. A (near-)zero a keeps all or nothing by the
+// sign of c (with `strict`, c == 0 keeps nothing: used to break ties between identical planes).
+Poly clip(const Poly& p, Vec2d a, double c, bool strict = false);
+// The part of p inside the convex polygon q.
+Poly intersect(const Poly& p, const Poly& q);
+
+// z = z0 + g.(x, y).
+struct Plane {
+  double z0 = 0;
+  Vec2d g{0, 0};
+  double at(Vec2d p) const { return z0 + g.x * p.x + g.y * p.y; }
+  Vec3d normal() const;  // unit, z > 0
+};
+
+// One groove near the footprint. The groove's own coordinates of a point p: b(p) = b0 + p.bdir
+// across (b > 0: the profile's +b side), t(p) = t0 + p.tdir along. The profile (points (b, w),
+// one layer per facet) holds at t = 0; along t it is scaled by r(t) = 1 + rho t (the force fade)
+// where r > 0, and the groove exists only for t in [t_lo, t_hi] (its ends).
+struct Groove {
+  Vec2d tdir{1, 0}, bdir{0, 1};
+  double t0 = 0, b0 = 0;
+  double rho = 0;
+  double t_lo = -1e30, t_hi = 1e30;
+  const std::vector<Vec2d>* pts = nullptr;
+  const std::vector<int>* layer = nullptr;
+  int id = 0;  // caller's index
+};
+
+// A planar convex piece of the composite surface.
+struct Piece {
+  Poly poly;    // in (x, y)
+  Plane plane;  // its height
+  int groove = -1;  // Groove::id, -1 for the base plane
+  int layer = 0;    // material layer (0: the top coat)
+};
+
+// A portion: a region of one piece (convex fragments in (x, y)) with the footprint weight per unit
+// of (x, y) area that it carries.
+struct Portion {
+  int piece = -1;
+  std::vector<Poly> frags;
+  double density = 0;
+  double weight = 0;  // density * area, kept up to date by the functions below
+};
+
+struct Hits {
+  std::vector<Portion> hits;  // weights: shares of the portion's weight
+  double escaped = 0;         // the share that leaves the surface
+};
+
+class Surface {
+ public:
+  static constexpr size_t kMaxFragments = 48;
+  static constexpr size_t kMaxPieces = 600;
+
+  // Cuts `region` (convex, counter-clockwise) into pieces. False when the pieces would exceed
+  // kMaxPieces (the caller then falls back).
+  bool build(const Poly& region, const std::vector<Groove>& grooves);
+  const std::vector<Piece>& pieces() const { return pieces_; }
+
+  // The portions of the pieces seen through the footprint `fp` (a convex polygon on the base
+  // plane z = 0: the pixel's parallelogram) from direction e (towards the viewer, e.z > 0), each
+  // with its share of the footprint; the shares sum to 1 up to what lies outside the region.
+  std::vector<Portion> visible(const Poly& fp, Vec3d e) const;
+  // The share of portion p that sees direction l (towards a light) unoccluded by the surface.
+  double litFraction(const Portion& p, Vec3d l) const;
+  // Where rays leaving portion p in direction d go (d on p's front side).
+  Hits scatter(const Portion& p, Vec3d d) const;
+  // Fragments dropped at the cap so far (diagnostics and tests).
+  mutable size_t overflow = 0;
+
+  // A vertical wall where the composite steps: a groove cutting below the base next to another's
+  // pile-up, or a groove that ends before its cross-section has faded out. The quad over the
+  // segment a-b from the low side's heights (za0, zb0) up to the high side's (za1, zb1); `out` is
+  // the horizontal unit normal towards the low side. Walls block and shadow; they are not
+  // themselves seen or lit (they are small and steep), and what reflects towards one is lost.
+  struct Wall {
+    Vec2d a, b;
+    double za0 = 0, zb0 = 0, za1 = 0, zb1 = 0;
+    Vec2d out;
+  };
+  // The composite height at p, from the grooves' definitions.
+  double heightAt(Vec2d p) const;
+  const std::vector<Wall>& walls() const { return walls_; }
+
+ private:
+  // The hidden part of piece `pi` along d as convex polygons in (x, y) (projections of the pieces
+  // facing away from d that lie on its d-side), with each one's distance along d at its centroid.
+  // Walls are reported with owner = pieces().size() + wall index.
+  void shadowsOn(size_t pi, Vec3d d, std::vector<Poly>& out, std::vector<double>* dist,
+                 std::vector<size_t>* owner) const;
+  std::vector<Piece> pieces_;
+  std::vector<Wall> walls_;
+  std::vector<Groove> grooves_;
+};
+
+// Area of a fragment list.
+double area(const std::vector<Poly>& frags);
+// frags minus the convex polygon s (in place); at most `cap` fragments are kept (the smallest
+// dropped, counted in `dropped`).
+void subtract(std::vector<Poly>& frags, const Poly& s, size_t cap, size_t& dropped);
+
+}  // namespace dg::groove::area

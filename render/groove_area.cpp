@@ -55,6 +55,7 @@ inline void edgeHalfPlane(Vec2d a, Vec2d b, Vec2d& n, double& c) {
 
 struct BBox {
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  BBox(Vec2d lo, Vec2d hi) : x0(lo.x), y0(lo.y), x1(hi.x), y1(hi.y) {}
   explicit BBox(const Poly& p) {
     for (int i = 0; i < p.n; ++i) {
       x0 = std::min(x0, p.v[size_t(i)].x);
@@ -99,8 +100,12 @@ double area(const std::vector<Poly>& frags) {
 void subtract(std::vector<Poly>& frags, const Poly& s, size_t cap, size_t& dropped) {
   if (s.empty()) return;
   const BBox sb(s);
-  std::vector<Poly> out;
-  out.reserve(frags.size() + 4);
+  bool any = false;
+  for (const Poly& f : frags)
+    if ((any = BBox(f).overlaps(sb))) break;
+  if (!any) return;
+  thread_local std::vector<Poly> out;  // swapped with frags below: both buffers are reused
+  out.clear();
   for (const Poly& f : frags) {
     if (!BBox(f).overlaps(sb)) {
       out.push_back(f);
@@ -146,6 +151,11 @@ struct Zone {
   Plane plane;
   int layer = 0;
   bool zero = true;
+  // Zones across the groove (inside its length, where r > 0): the first n_inside half-planes say
+  // so, and the zone is where the profile coordinate u = b / r lies in [ulo, uhi].
+  bool across = false;
+  int n_inside = 0;
+  double ulo = -1e300, uhi = 1e300;
   void add(Vec2d a, double c) { h[nh++] = {a, c, false}; }
 };
 
@@ -173,6 +183,8 @@ void zonesOf(const Groove& g, std::vector<Zone>& zones) {
     zones.push_back(z);
   }
   inside.add(g.tdir * -g.rho, -(1 + g.rho * g.t0));  // r >= 0
+  inside.across = true;
+  inside.n_inside = inside.nh;
   // b >= r x_j  <=>  -(bdir - x_j rho tdir).p - (b0 - x_j (1 + rho t0)) <= 0
   auto vertexLine = [&](double xj, bool right_of, Zone& z) {
     Vec2d a = g.bdir - g.tdir * (xj * g.rho);
@@ -185,6 +197,7 @@ void zonesOf(const Groove& g, std::vector<Zone>& zones) {
   {
     Zone z = inside;
     vertexLine(P.front().x, false, z);
+    z.uhi = P.front().x;
     zones.push_back(z);
   }
   for (size_t j = 0; j + 1 < P.size(); ++j) {
@@ -196,6 +209,8 @@ void zonesOf(const Groove& g, std::vector<Zone>& zones) {
     Zone z = inside;
     vertexLine(P[j].x, true, z);
     vertexLine(P[j + 1].x, false, z);
+    z.ulo = P[j].x;
+    z.uhi = P[j + 1].x;
     // h = r c_j + s b = c_j (1 + rho t0) + s b0 + (c_j rho tdir + s bdir).p
     z.plane.z0 = cj * (1 + g.rho * g.t0) + s * g.b0;
     z.plane.g = g.tdir * (cj * g.rho) + g.bdir * s;
@@ -215,11 +230,14 @@ void zonesOf(const Groove& g, std::vector<Zone>& zones) {
     Zone z = inside;
     vertexLine(P[j].x, true, z);
     vertexLine(P[j + 1].x, false, z);
+    z.ulo = P[j].x;
+    z.uhi = P[j + 1].x;
     zones.push_back(z);
   }
   {
     Zone z = inside;
     vertexLine(P.back().x, true, z);
+    z.ulo = P.back().x;
     zones.push_back(z);
   }
 }
@@ -247,6 +265,7 @@ double Surface::heightAt(Vec2d p) const {
 
 bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   pieces_.clear();
+  cache_keys_ = 0;
   walls_.clear();
   grooves_ = grooves;
   constexpr size_t kMaxGrooves = 8;
@@ -262,12 +281,35 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   std::vector<Zone> zones;
   const size_t cell_cap = 4 * kMaxPieces;
   for (size_t gi = 0; gi < grooves.size(); ++gi) {
-    zonesOf(grooves[gi], zones);
+    const Groove& g = grooves[gi];
+    zonesOf(g, zones);
     next.clear();
-    for (const Cell& c : cells)
+    for (const Cell& c : cells) {
+      // A cell wholly inside the groove's length where r > 0 (the common case) meets only the
+      // zones across it whose u range overlaps the cell's (u = b / r is extreme at vertices);
+      // one such zone takes the cell as it is.
+      bool inside = true;
+      double umin = 1e300, umax = -1e300;
+      for (int k = 0; k < c.poly.n && inside; ++k) {
+        Vec2d q = c.poly.v[size_t(k)];
+        double t = g.t0 + g.tdir.x * q.x + g.tdir.y * q.y, r = 1 + g.rho * t;
+        inside = t >= g.t_lo && t <= g.t_hi && r > 1e-9;
+        double u = (g.b0 + g.bdir.x * q.x + g.bdir.y * q.y) / r;
+        umin = std::min(umin, u);
+        umax = std::max(umax, u);
+      }
+      int overlapping = 0;
+      if (inside)
+        for (const Zone& z : zones) overlapping += z.across && z.ulo <= umax && z.uhi >= umin;
       for (const Zone& z : zones) {
         Poly p = c.poly;
-        for (int k = 0; k < z.nh && !p.empty(); ++k) p = clip(p, z.h[k].a, z.h[k].c);
+        if (inside) {
+          if (!z.across || z.ulo > umax || z.uhi < umin) continue;
+          if (overlapping > 1)
+            for (int k = z.n_inside; k < z.nh && !p.empty(); ++k) p = clip(p, z.h[k].a, z.h[k].c);
+        } else {
+          for (int k = 0; k < z.nh && !p.empty(); ++k) p = clip(p, z.h[k].a, z.h[k].c);
+        }
         if (p.empty() || p.area() <= kSliver) continue;
         if (next.size() >= cell_cap) return false;
         next.push_back(c);
@@ -277,6 +319,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
         n.layer[gi] = z.layer;
         n.zero[gi] = z.zero;
       }
+    }
     cells.swap(next);
   }
   // In each cell every groove's height is one plane f_i (f = 0 for the base). The composite is the
@@ -286,6 +329,43 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   for (const Cell& c : cells) {
     auto diff = [&](const Plane& x, const Plane& y) { return std::make_pair(x.g - y.g, x.z0 - y.z0); };
     const Plane zero;
+    // The winner at a point, with the same rule and ties: (a, below?).
+    auto winner = [&](Vec2d q) {
+      size_t lo_a = 0, hi_a = 0;
+      double lo = 0, hi = 0;
+      for (size_t j = 1; j <= G; ++j) {
+        if (c.zero[j - 1]) continue;
+        double v = c.f[j - 1].at(q);
+        if (v < lo) lo = v, lo_a = j;
+        if (v > hi) hi = v, hi_a = j;
+      }
+      return lo < 0 ? std::make_pair(lo_a, true) : std::make_pair(hi_a, false);
+    };
+    // The regions where one plane wins are convex, so when every vertex has the same winner (by
+    // a margin) the whole cell is one piece.
+    {
+      auto w0 = winner(c.poly.v[0]);
+      bool same = true;
+      for (int k = 1; k < c.poly.n && same; ++k) same = winner(c.poly.v[size_t(k)]) == w0;
+      // A margin against vertices on a boundary: the runner-up must be clearly behind.
+      for (int k = 0; k < c.poly.n && same; ++k) {
+        Vec2d q = c.poly.v[size_t(k)];
+        double best = w0.first == 0 ? 0.0 : c.f[w0.first - 1].at(q);
+        if (w0.second ? !(best < -1e-12) : false) same = false;
+        for (size_t j = 0; j <= G && same; ++j) {
+          if (j == w0.first || (j > 0 && c.zero[j - 1])) continue;
+          double v = j == 0 ? 0.0 : c.f[j - 1].at(q);
+          if (w0.second ? !(v > best + 1e-12) : !(v < best - 1e-12 || (v <= 0 && best == 0 && w0.first == 0)))
+            same = false;
+        }
+      }
+      if (same) {
+        size_t a = w0.first;
+        if (pieces_.size() >= kMaxPieces) return false;
+        pieces_.push_back({c.poly, a == 0 ? zero : c.f[a - 1], a == 0 ? -1 : grooves[a - 1].id, a == 0 ? 0 : c.layer[a - 1]});
+        continue;
+      }
+    }
     for (size_t a = 0; a <= G; ++a) {
       if (a > 0 && c.zero[a - 1]) continue;  // a zero plane never wins over the base
       const Plane& fa = a == 0 ? zero : c.f[a - 1];
@@ -317,6 +397,16 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
       }
     }
   }
+  for (Piece& pc : pieces_) {
+    pc.lo = pc.hi = pc.poly.v[0];
+    pc.zmax = -1e300;
+    for (int k = 0; k < pc.poly.n; ++k) {
+      Vec2d q = pc.poly.v[size_t(k)];
+      pc.lo = Vec2d(std::min(pc.lo.x, q.x), std::min(pc.lo.y, q.y));
+      pc.hi = Vec2d(std::max(pc.hi.x, q.x), std::max(pc.hi.y, q.y));
+      pc.zmax = std::max(pc.zmax, pc.plane.at(q));
+    }
+  }
   // Steps of the composite: along every piece edge, the surface just outside higher than the
   // piece. Each wall is found once, from its low side.
   constexpr double kStep = 1e-9;  // mm outside the edge
@@ -346,7 +436,7 @@ namespace {
 inline double facing(const Plane& p, Vec3d d) { return d.z - p.g.x * d.x - p.g.y * d.y; }
 }  // namespace
 
-void Surface::shadowsOn(size_t pi, Vec3d d, std::vector<Poly>& out, std::vector<double>* dist,
+void Surface::shadowsOn(size_t pi, Vec3d d, Vec2d lo, Vec2d hi, std::vector<Poly>& out, std::vector<double>* dist,
                         std::vector<size_t>* owner) const {
   out.clear();
   if (dist) dist->clear();
@@ -354,9 +444,20 @@ void Surface::shadowsOn(size_t pi, Vec3d d, std::vector<Poly>& out, std::vector<
   const Plane& P = pieces_[pi].plane;
   const double den = facing(P, d);  // > 0: P faces d
   if (!(den > 0)) return;
+  // Can something over the box [qlo, qhi], at most zmax high, project into [lo, hi]? Its points
+  // move by -lambda d_xy with 0 <= lambda <= (zmax - min of P over the box) / den.
+  auto reaches = [&](Vec2d qlo, Vec2d qhi, double zmax) {
+    double pmin = P.z0 + std::min(P.g.x * qlo.x, P.g.x * qhi.x) + std::min(P.g.y * qlo.y, P.g.y * qhi.y);
+    if (!(zmax > pmin)) return false;  // wholly below P's plane
+    double lmax = (zmax - pmin) / den;
+    double sx = -lmax * d.x, sy = -lmax * d.y;
+    return qlo.x + std::min(0.0, sx) <= hi.x && qhi.x + std::max(0.0, sx) >= lo.x &&
+           qlo.y + std::min(0.0, sy) <= hi.y && qhi.y + std::max(0.0, sy) >= lo.y;
+  };
   for (size_t qi = 0; qi < pieces_.size(); ++qi) {
     const Piece& Q = pieces_[qi];
     if (!(facing(Q.plane, d) < 0)) continue;  // only pieces facing away from d block it
+    if (!reaches(Q.lo, Q.hi, Q.zmax)) continue;
     // The part of Q on the d-side of P's plane: Q(p) - P(p) >= 0.
     Poly q = clip(Q.poly, P.g - Q.plane.g, P.z0 - Q.plane.z0);
     if (q.empty()) continue;
@@ -380,6 +481,9 @@ void Surface::shadowsOn(size_t pi, Vec3d d, std::vector<Poly>& out, std::vector<
   for (size_t wi = 0; wi < walls_.size(); ++wi) {
     const Wall& w = walls_[wi];
     if (!(w.out.x * d.x + w.out.y * d.y < 0)) continue;
+    if (!reaches(Vec2d(std::min(w.a.x, w.b.x), std::min(w.a.y, w.b.y)), Vec2d(std::max(w.a.x, w.b.x), std::max(w.a.y, w.b.y)),
+                 std::max(w.za1, w.zb1)))
+      continue;
     // The quad in 3-D, clipped to the d-side of P's plane (z - P(x, y) >= 0), then projected.
     Vec3d quad[4] = {{w.a.x, w.a.y, w.za0}, {w.b.x, w.b.y, w.zb0}, {w.b.x, w.b.y, w.zb1}, {w.a.x, w.a.y, w.za1}};
     Vec3d kept[8];
@@ -407,12 +511,24 @@ void Surface::shadowsOn(size_t pi, Vec3d d, std::vector<Poly>& out, std::vector<
   }
 }
 
+namespace {
+void boxOf(const std::vector<Poly>& frags, Vec2d& lo, Vec2d& hi) {
+  lo = Vec2d(1e300, 1e300);
+  hi = Vec2d(-1e300, -1e300);
+  for (const Poly& f : frags)
+    for (int k = 0; k < f.n; ++k) {
+      lo = Vec2d(std::min(lo.x, f.v[size_t(k)].x), std::min(lo.y, f.v[size_t(k)].y));
+      hi = Vec2d(std::max(hi.x, f.v[size_t(k)].x), std::max(hi.y, f.v[size_t(k)].y));
+    }
+}
+}  // namespace
+
 std::vector<Portion> Surface::visible(const Poly& fp, Vec3d e) const {
   std::vector<Portion> out;
   const double afp = std::fabs(fp.area());
   if (!(afp > 0) || !(e.z > 0)) return out;
   Vec2d exy(e.x / e.z, e.y / e.z);
-  std::vector<Poly> shadows;
+  thread_local std::vector<Poly> shadows;
   for (size_t pi = 0; pi < pieces_.size(); ++pi) {
     const Piece& P = pieces_[pi];
     // A point p of P is seen through the base-plane point u = p - P(p) e_xy / e_z, i.e.
@@ -432,7 +548,9 @@ std::vector<Portion> Surface::visible(const Poly& fp, Vec3d e) const {
     Portion por;
     por.piece = int(pi);
     por.frags.push_back(frag);
-    shadowsOn(pi, e, shadows, nullptr, nullptr);
+    Vec2d lo, hi;
+    boxOf(por.frags, lo, hi);
+    shadowsOn(pi, e, lo, hi, shadows, nullptr, nullptr);
     for (const Poly& s : shadows) {
       subtract(por.frags, s, kMaxFragments, overflow);
       if (por.frags.empty()) break;
@@ -444,29 +562,67 @@ std::vector<Portion> Surface::visible(const Poly& fp, Vec3d e) const {
   return out;
 }
 
-double Surface::litFraction(const Portion& p, Vec3d l) const {
-  const Piece& P = pieces_[size_t(p.piece)];
-  if (!(facing(P.plane, l) > 0)) return 0.0;
+double Surface::litWith(const Portion& p, const Poly* shadows, size_t n) const {
   double a0 = area(p.frags);
   if (!(a0 > 0)) return 0.0;
-  thread_local std::vector<Poly> shadows, frags;
-  shadowsOn(size_t(p.piece), l, shadows, nullptr, nullptr);
-  frags = p.frags;
-  for (const Poly& s : shadows) {
-    subtract(frags, s, kMaxFragments, overflow);
+  Vec2d lo, hi;
+  boxOf(p.frags, lo, hi);
+  const BBox pb(lo, hi);
+  thread_local std::vector<Poly> frags;
+  bool copied = false;
+  for (size_t i = 0; i < n; ++i) {
+    if (!BBox(shadows[i]).overlaps(pb)) continue;
+    if (!copied) {
+      frags = p.frags;
+      copied = true;
+    }
+    subtract(frags, shadows[i], kMaxFragments, overflow);
     if (frags.empty()) return 0.0;
   }
-  return std::min(1.0, area(frags) / a0);
+  return copied ? std::min(1.0, area(frags) / a0) : 1.0;
+}
+
+double Surface::litFraction(const Portion& p, Vec3d l) const {
+  if (!(facing(pieces_[size_t(p.piece)].plane, l) > 0)) return 0.0;
+  thread_local std::vector<Poly> shadows;
+  Vec2d lo, hi;
+  boxOf(p.frags, lo, hi);
+  shadowsOn(size_t(p.piece), l, lo, hi, shadows, nullptr, nullptr);
+  return litWith(p, shadows.data(), shadows.size());
+}
+
+void Surface::cacheLights(size_t keys) const {
+  cache_keys_ = keys;
+  cache_range_.assign(pieces_.size() * keys, {-1, -1});
+  cache_polys_.clear();
+}
+
+double Surface::litFraction(const Portion& p, Vec3d l, size_t key) const {
+  const Piece& P = pieces_[size_t(p.piece)];
+  if (!(facing(P.plane, l) > 0)) return 0.0;
+  if (key >= cache_keys_) return litFraction(p, l);
+  auto& r = cache_range_[size_t(p.piece) * cache_keys_ + key];
+  if (r.first < 0) {
+    // For the whole piece, so that every portion on it can use them.
+    thread_local std::vector<Poly> shadows;
+    shadowsOn(size_t(p.piece), l, P.lo, P.hi, shadows, nullptr, nullptr);
+    r.first = int(cache_polys_.size());
+    cache_polys_.insert(cache_polys_.end(), shadows.begin(), shadows.end());
+    r.second = int(cache_polys_.size());
+  }
+  return litWith(p, cache_polys_.data() + r.first, size_t(r.second - r.first));
 }
 
 Hits Surface::scatter(const Portion& p, Vec3d d) const {
   Hits h;
   const Piece& P = pieces_[size_t(p.piece)];
   if (!(facing(P.plane, d) > 0)) return h;
-  std::vector<Poly> shadows;
-  std::vector<double> dist;
-  std::vector<size_t> owner;
-  shadowsOn(size_t(p.piece), d, shadows, &dist, &owner);
+  thread_local std::vector<Poly> shadows;
+  thread_local std::vector<double> dist;
+  thread_local std::vector<size_t> owner;
+  Vec2d lo, hi;
+  boxOf(p.frags, lo, hi);
+  shadowsOn(size_t(p.piece), d, lo, hi, shadows, &dist, &owner);
   std::vector<size_t> order(shadows.size());
   std::iota(order.begin(), order.end(), size_t(0));
   std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return dist[a] < dist[b]; });

@@ -78,6 +78,8 @@ struct Piece {
   Plane plane;  // its height
   int groove = -1;  // Groove::id, -1 for the base plane
   int layer = 0;    // material layer (0: the top coat)
+  Vec2d lo{0, 0}, hi{0, 0};  // bounding box of poly
+  double zmax = 0;            // highest point
 };
 
 // A portion: a region of one piece (convex fragments in (x, y)) with the footprint weight per unit
@@ -110,6 +112,10 @@ class Surface {
   std::vector<Portion> visible(const Poly& fp, Vec3d e) const;
   // The share of portion p that sees direction l (towards a light) unoccluded by the surface.
   double litFraction(const Portion& p, Vec3d l) const;
+  // The same for light direction number `key` (< keys, as set by cacheLights): the shadow
+  // polygons on each piece are computed once per direction and kept until the next build.
+  void cacheLights(size_t keys) const;
+  double litFraction(const Portion& p, Vec3d l, size_t key) const;
   // Where rays leaving portion p in direction d go (d on p's front side).
   Hits scatter(const Portion& p, Vec3d d) const;
   // Fragments dropped at the cap so far (diagnostics and tests).
@@ -132,12 +138,18 @@ class Surface {
  private:
   // The hidden part of piece `pi` along d as convex polygons in (x, y) (projections of the pieces
   // facing away from d that lie on its d-side), with each one's distance along d at its centroid.
-  // Walls are reported with owner = pieces().size() + wall index.
-  void shadowsOn(size_t pi, Vec3d d, std::vector<Poly>& out, std::vector<double>* dist,
+  // Only occluders whose projection can reach the box [lo, hi] (the receiving portion's) are
+  // projected. Walls are reported with owner = pieces().size() + wall index.
+  void shadowsOn(size_t pi, Vec3d d, Vec2d lo, Vec2d hi, std::vector<Poly>& out, std::vector<double>* dist,
                  std::vector<size_t>* owner) const;
   std::vector<Piece> pieces_;
   std::vector<Wall> walls_;
   std::vector<Groove> grooves_;
+  // Shadow polygons per (piece, light key): [begin, end) in cache_polys_, begin < 0 if not yet.
+  mutable size_t cache_keys_ = 0;
+  mutable std::vector<std::pair<int, int>> cache_range_;
+  mutable std::vector<Poly> cache_polys_;
+  double litWith(const Portion& p, const Poly* shadows, size_t n) const;
 };
 
 // Area of a fragment list.

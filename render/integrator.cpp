@@ -809,7 +809,7 @@ class Tracer {
       return normalize(gs.T * float(n.x) + gs.B * float(n.y) + gs.W * float(n.z));
     }
     int layer(const Portion& p) const { return gs.surface.pieces()[size_t(p.piece)].layer; }
-    double lit(const Portion& p, size_t li) const { return gs.surface.litFraction(p, light[li]); }
+    double lit(const Portion& p, size_t li) const { return gs.surface.litFraction(p, light[li], li); }
     groove::area::Hits scatter(const Portion& p, Vec3f d) const { return gs.surface.scatter(p, local(d)); }
   };
 
@@ -835,6 +835,7 @@ class Tracer {
     light.clear();
     for (const LightSample& l : ls) light.push_back(Vec3d(dot(l.wl, gs.T), dot(l.wl, gs.B), dot(l.wl, gs.W)));
     AreaGeometry geo{gs, light};
+    gs.surface.cacheLights(light.size());
     std::vector<groove::area::Portion> portions = gs.surface.visible(gs.fp2, geo.local(wo_w));
     double wsum = 0;
     for (const auto& p : portions) wsum += p.weight;

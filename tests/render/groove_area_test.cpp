@@ -228,7 +228,9 @@ TEST_P(Layouts, ScatterSharesMatchRayMarching) {
     if (n.x * d.x + n.y * d.y + n.z * d.z > 0) {
       // What walls catch is not followed, so the shares may fall short only where there are walls.
       EXPECT_LE(sum, p.weight * (1 + 1e-6) + 1e-12);
-      if (s.walls().empty()) EXPECT_NEAR(sum, p.weight, 1e-9 + 1e-6 * p.weight);
+      if (s.walls().empty()) {
+        EXPECT_NEAR(sum, p.weight, 1e-9 + 1e-6 * p.weight);
+      }
       total += p.weight;
       hit += p.weight - h.escaped;
     }
@@ -249,6 +251,29 @@ TEST_P(Layouts, ScatterSharesMatchRayMarching) {
   EXPECT_NEAR(total, double(front) / (n * n), 0.02);
   EXPECT_NEAR(hit, double(blk) / (n * n), 0.02);
   EXPECT_GT(blk, 0);
+}
+
+// The shadow polygons cached per piece and light give the lit fractions computed afresh.
+TEST_P(Layouts, CachedShadowsGiveTheSameLitFractions) {
+  auto gs = grooves();
+  Surface s;
+  ASSERT_TRUE(s.build(rect(-0.4, -0.4, 0.4, 0.4), gs));
+  std::vector<Vec3d> lights = {unit({-0.3, 1.0, 0.35}), unit({0.9, 0.2, 0.3}), unit({0.1, -0.2, 1.0})};
+  std::vector<Portion> vis = s.visible(rect(-0.06, -0.06, 0.06, 0.06), view());
+  // Deeper-level portions too: what a reflection reaches.
+  std::vector<Portion> all = vis;
+  for (const Portion& p : vis)
+    for (Portion& q : s.scatter(p, unit({0.2, 0.95, 0.25})).hits) all.push_back(std::move(q));
+  s.cacheLights(lights.size());
+  int partly = 0;
+  for (int pass = 0; pass < 2; ++pass)  // the second pass reads the cache
+    for (const Portion& p : all)
+      for (size_t k = 0; k < lights.size(); ++k) {
+        double fresh = s.litFraction(p, lights[k]), cached = s.litFraction(p, lights[k], k);
+        EXPECT_NEAR(cached, fresh, 1e-12);
+        partly += pass == 0 && fresh > 0.01 && fresh < 0.99;
+      }
+  EXPECT_GT(partly, 0);
 }
 
 INSTANTIATE_TEST_SUITE_P(CrossingAndEnds, Layouts, ::testing::Values(0, 1, 2));

@@ -276,6 +276,31 @@ TEST_P(Layouts, CachedShadowsGiveTheSameLitFractions) {
   EXPECT_GT(partly, 0);
 }
 
+// Grazing views, lights and reflections give finite shares in [0, 1] (digest §7).
+TEST_P(Layouts, GrazingDirectionsStayFinite) {
+  auto gs = grooves();
+  Surface s;
+  ASSERT_TRUE(s.build(rect(-0.4, -0.4, 0.4, 0.4), gs));
+  for (double z : {1e-2, 1e-4, 1e-7}) {
+    const Vec3d e = unit({0.6, -0.8, z}), l = unit({-0.8, 0.6, z});
+    std::vector<Portion> vis = s.visible(rect(-0.06, -0.06, 0.06, 0.06), e);
+    double wsum = 0;
+    for (const Portion& p : vis) {
+      ASSERT_TRUE(std::isfinite(p.weight));
+      EXPECT_GE(p.weight, 0);
+      wsum += p.weight;
+      double lit = s.litFraction(p, l);
+      ASSERT_TRUE(std::isfinite(lit));
+      EXPECT_GE(lit, 0);
+      EXPECT_LE(lit, 1);
+      Hits h = s.scatter(p, l);
+      ASSERT_TRUE(std::isfinite(h.escaped));
+      for (const Portion& q : h.hits) ASSERT_TRUE(std::isfinite(q.weight));
+    }
+    EXPECT_LE(wsum, 1 + 1e-6) << "view elevation " << z;
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(CrossingAndEnds, Layouts, ::testing::Values(0, 1, 2));
 
 // One straight groove with no end: the polygons give what 1-D line sampling gives, facet by

@@ -47,10 +47,11 @@ Poly clip(const Poly& p, Vec2d a, double c, bool strict) {
 namespace {
 
 // The half-plane left of the directed edge a -> b (the inside of a counter-clockwise polygon) as
-// (n, c) with n.p + c <= 0 inside.
-inline void edgeHalfPlane(Vec2d a, Vec2d b, Vec2d& n, double& c) {
+// (n, c) with n.p + c <= 0 inside. False for a degenerate edge, which bounds nothing.
+inline bool edgeHalfPlane(Vec2d a, Vec2d b, Vec2d& n, double& c) {
   n = Vec2d(b.y - a.y, a.x - b.x);  // outward normal of a counter-clockwise edge
   c = -(n.x * a.x + n.y * a.y);
+  return std::fabs(n.x) + std::fabs(n.y) >= 1e-12;
 }
 
 struct BBox {
@@ -79,9 +80,7 @@ Poly intersect(const Poly& p, const Poly& q) {
   for (int i = 0; i < q.n && !r.empty(); ++i) {
     Vec2d n;
     double c;
-    edgeHalfPlane(q.v[size_t(i)], q.v[size_t((i + 1) % q.n)], n, c);
-    if (std::fabs(n.x) + std::fabs(n.y) < 1e-12) continue;  // a degenerate edge bounds nothing
-    r = clip(r, n, c);
+    if (edgeHalfPlane(q.v[size_t(i)], q.v[size_t((i + 1) % q.n)], n, c)) r = clip(r, n, c);
   }
   return r;
 }
@@ -116,8 +115,7 @@ void subtract(std::vector<Poly>& frags, const Poly& s, size_t cap, size_t& dropp
     for (int i = 0; i < s.n && !rest.empty(); ++i) {
       Vec2d n;
       double c;
-      edgeHalfPlane(s.v[size_t(i)], s.v[size_t((i + 1) % s.n)], n, c);
-      if (std::fabs(n.x) + std::fabs(n.y) < 1e-12) continue;  // a degenerate edge bounds nothing
+      if (!edgeHalfPlane(s.v[size_t(i)], s.v[size_t((i + 1) % s.n)], n, c)) continue;
       Poly outside = clip(rest, n * -1.0, -c);
       if (!outside.empty() && outside.area() > kSliver) out.push_back(outside);
       rest = clip(rest, n, c);

@@ -224,6 +224,10 @@ GenerateResult runGenerate(const GenerateOptions& o) {
     double rs = secondsSince(t0);
     render_total += rs;
     json t = {{"index", i}, {"render_s", rs}, {"rays", f.stats.rays}};
+    if (f.stats.groove_sections + f.stats.groove_polygons + f.stats.groove_fallbacks > 0)
+      t["groove_footprints"] = {{"sections", f.stats.groove_sections},
+                                {"polygons", f.stats.groove_polygons},
+                                {"fallbacks", f.stats.groove_fallbacks}};
     writeSampleFiles(out, ds.config, s, f, t);
     per_sample.push_back(t);
     ++res.rendered;

@@ -598,8 +598,12 @@ class Tracer {
         return false;
       }
       // An end inside the footprint: polygons, unless past their caps (then the end blend).
-      if (sets.back().end_share < 1.0f && st_.groove_polygons && buildArea(sp, near, ref, enlarge, sets.back()))
-        sets.back().area = true;
+      if (sets.back().end_share < 1.0f) {
+        sets.back().area = st_.groove_polygons && buildArea(sp, near, ref, enlarge, sets.back());
+        ++(sets.back().area ? counts_.polygons : counts_.fallbacks);
+      } else {
+        ++counts_.sections;
+      }
       return true;
     }
     // Crossings: polygons over all the grooves near the footprint.
@@ -607,10 +611,12 @@ class Tracer {
       sets.emplace_back();
       if (buildArea(sp, near, ref, enlarge, sets.back())) {
         sets.back().area = true;
+        ++counts_.polygons;
         return true;
       }
       sets.clear();
     }
+    ++counts_.fallbacks;
     // Crossings: the share of the footprint where each direction's grooves are the lowest
     // surface (or, where no groove is below it, the highest pile-up), from a 4 x 4 grid of
     // points over the pixel footprint; points on the plain surface count for the reference.
@@ -1034,6 +1040,17 @@ class Tracer {
     }
   }
 
+  // Groove footprints by method (RenderStats), counted per thread and taken at each tile's end.
+  struct GrooveCounts {
+    uint64_t sections = 0, polygons = 0, fallbacks = 0;
+  };
+  static thread_local GrooveCounts counts_;
+  static GrooveCounts takeCounts() {
+    GrooveCounts c = counts_;
+    counts_ = GrooveCounts();
+    return c;
+  }
+
   const RenderScene& s_;
   const RenderSettings& st_;
   const TriangleMesh& mesh_;
@@ -1046,6 +1063,8 @@ class Tracer {
   float max_height_ = 0, max_depth_ = 0, max_half_ = 0;  // over all scratches (mm)
   float tan_light_max_ = 6.0f;  // cap on the shadow reach toward grazing lights (Bosch §4.2.1)
 };
+
+thread_local Tracer::GrooveCounts Tracer::counts_;
 
 DiffRay cameraRay(const RayGenerator& gen, float px, float py) {
   DiffRay r;
@@ -1099,7 +1118,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
   RayGenerator gen(scene.camera);
   Tracer tracer(scene, st);
   const int tx = (W + kTile - 1) / kTile, ty = (H + kTile - 1) / kTile;
-  std::atomic<uint64_t> rays{0};
+  std::atomic<uint64_t> rays{0}, g_sections{0}, g_polygons{0}, g_fallbacks{0};
   const int K = std::max(1, st.coverage_grid);
   const int ninst = scene.defects ? int(scene.defects->size()) : 0;
   // Strata for groove rendering: sx * sy = spp with sy the largest divisor <= sqrt(spp).
@@ -1112,6 +1131,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
     int x0 = int(tile % tx) * kTile, y0 = int(tile / tx) * kTile;
     int x1 = std::min(W, x0 + kTile), y1 = std::min(H, y0 + kTile);
     uint64_t local_rays = 0;
+    Tracer::takeCounts();  // start this tile's groove counts from zero
     std::vector<uint16_t> counts(size_t(ninst) + 1);
     std::vector<float> scov(size_t(ninst) + 1);
     for (int y = y0; y < y1; ++y)
@@ -1207,8 +1227,15 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
         }
       }
     rays += local_rays;
+    auto gc = Tracer::takeCounts();
+    g_sections += gc.sections;
+    g_polygons += gc.polygons;
+    g_fallbacks += gc.fallbacks;
   });
   out.stats.rays = rays.load();
+  out.stats.groove_sections = g_sections.load();
+  out.stats.groove_polygons = g_polygons.load();
+  out.stats.groove_fallbacks = g_fallbacks.load();
   return out;
 }
 

@@ -76,6 +76,9 @@ struct RenderSettings {
 struct RenderStats {
   uint64_t rays = 0;         // all rays cast (closest-hit and occlusion)
   double seconds_shading = 0;
+  // Camera samples whose footprint the groove renderer integrated: by 1-D sections (isolated and
+  // parallel grooves), by polygons (crossings and ends), or by the blend past the polygons' caps.
+  uint64_t groove_sections = 0, groove_polygons = 0, groove_fallbacks = 0;
 };
 
 struct RenderFrame {

@@ -43,6 +43,17 @@ LAYOUTS = {
     fade_mm: 0.6
     region: [0.43, 0.43, 0.57, 0.57]
 """,
+    # Twelve scratches in all directions through a small spot: past the polygons' caps (at most
+    # eight grooves per footprint), so the renderer's fallback blend is used there.
+    "star": """
+  - type: scratch
+    count: 12
+    length_mm: 4
+    orientation_deg: {uniform: [0, 180]}
+    force_kg: 1
+    hardness_hv: 30
+    region: [0.48, 0.48, 0.52, 0.52]
+""",
     # Thirty concentric wash-swirl arcs over most of the view (bench only: the cut mesh has 2.5
     # million triangles, and the time to build it is part of what the bench measures).
     "swirls": """

@@ -303,6 +303,25 @@ TEST_P(Layouts, GrazingDirectionsStayFinite) {
 
 INSTANTIATE_TEST_SUITE_P(CrossingAndEnds, Layouts, ::testing::Values(0, 1, 2));
 
+// Past the caps build() refuses (the renderer then falls back to the blend): more than 8
+// grooves, or more pieces than kMaxPieces.
+TEST(GrooveArea, BuildRefusesPastItsCaps) {
+  Surface s;
+  std::vector<Groove> many;
+  for (int i = 0; i < 9; ++i) many.push_back(along(Vec2d(std::cos(0.3 * i), std::sin(0.3 * i)), 0.001 * i, i));
+  EXPECT_FALSE(s.build(rect(-0.3, -0.3, 0.3, 0.3), many));
+  many.pop_back();
+  // Eight grooves in eight directions through one point would need more than kMaxPieces pieces.
+  EXPECT_FALSE(s.build(rect(-0.3, -0.3, 0.3, 0.3), many));
+  // Three of them fit.
+  many.resize(3);
+  ASSERT_TRUE(s.build(rect(-0.3, -0.3, 0.3, 0.3), many));
+  EXPECT_LE(s.pieces().size(), Surface::kMaxPieces);
+  // Two crossing grooves are far below the cap.
+  ASSERT_TRUE(s.build(rect(-0.3, -0.3, 0.3, 0.3), crossing()));
+  EXPECT_LT(s.pieces().size(), Surface::kMaxPieces / 2);
+}
+
 // One straight groove with no end: the polygons give what 1-D line sampling gives, facet by
 // facet (the "isolated and general method agree where both apply" test of digest §7).
 TEST(GrooveArea, AgreesWithLineSamplingOnASingleGroove) {

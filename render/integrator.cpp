@@ -892,7 +892,7 @@ class Tracer {
         double lit = geo.lit(p, li);
         if (!(lit > 0)) continue;
         Rgb f = bsdf.eval(wi);
-        float w = powerHeuristic(nl_eff * l.pdf, nb * bsdf.pdf(wi));
+        float w = powerHeuristic(nl_eff * l.pdf, float(nb * p.weight / wsum) * bsdf.pdf(wi));
         L += beta * f * l.Le * float(p.weight * lit * wi.z * w / (nl_eff * l.pdf));
       }
     }
@@ -949,7 +949,8 @@ class Tracer {
         r.o = origin;
         r.d = d;
         r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
-        L += continuePath(r, beta_next * float(sc.escaped), nb * bs.pdf, false, origin, 1 + level, rng, nrays, nl_eff);
+        L += continuePath(r, beta_next * float(sc.escaped), float(nb * p.weight / wsum) * bs.pdf, false, origin,
+                          1 + level, rng, nrays, nl_eff);
       }
       if (!last && !sc.hits.empty()) L += shadeLevel(geo, top, sc.hits, -d, beta_next, level + 1, ls, rng, nrays);
     }

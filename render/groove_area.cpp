@@ -16,10 +16,12 @@ double Poly::area() const {
   return 0.5 * a;
 }
 
-Vec2d Poly::centroid() const {
-  Vec2d c(0, 0);
-  for (int i = 0; i < n; ++i) c = c + v[size_t(i)];
-  return n > 0 ? c / double(n) : c;
+void Poly::extend(Vec2d& lo, Vec2d& hi) const {
+  for (int i = 0; i < n; ++i) {
+    const Vec2d& q = v[size_t(i)];
+    lo = Vec2d(std::min(lo.x, q.x), std::min(lo.y, q.y));
+    hi = Vec2d(std::max(hi.x, q.x), std::max(hi.y, q.y));
+  }
 }
 
 Poly clip(const Poly& p, Vec2d a, double c, bool strict) {
@@ -55,17 +57,10 @@ inline bool edgeHalfPlane(Vec2d a, Vec2d b, Vec2d& n, double& c) {
 }
 
 struct BBox {
-  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
-  BBox(Vec2d lo, Vec2d hi) : x0(lo.x), y0(lo.y), x1(hi.x), y1(hi.y) {}
-  explicit BBox(const Poly& p) {
-    for (int i = 0; i < p.n; ++i) {
-      x0 = std::min(x0, p.v[size_t(i)].x);
-      x1 = std::max(x1, p.v[size_t(i)].x);
-      y0 = std::min(y0, p.v[size_t(i)].y);
-      y1 = std::max(y1, p.v[size_t(i)].y);
-    }
-  }
-  bool overlaps(const BBox& o) const { return x0 <= o.x1 && o.x0 <= x1 && y0 <= o.y1 && o.y0 <= y1; }
+  Vec2d lo{1e300, 1e300}, hi{-1e300, -1e300};
+  BBox(Vec2d l, Vec2d h) : lo(l), hi(h) {}
+  explicit BBox(const Poly& p) { p.extend(lo, hi); }
+  bool overlaps(const BBox& o) const { return lo.x <= o.hi.x && o.lo.x <= hi.x && lo.y <= o.hi.y && o.lo.y <= hi.y; }
 };
 
 void reverse(Poly& p) { std::reverse(p.v.begin(), p.v.begin() + p.n); }
@@ -139,7 +134,6 @@ namespace {
 struct HalfPlane {
   Vec2d a;
   double c;
-  bool strict;
 };
 
 // A zone of one groove: where its height is one plane (zero outside its facets).
@@ -154,7 +148,7 @@ struct Zone {
   bool across = false;
   int n_inside = 0;
   double ulo = -1e300, uhi = 1e300;
-  void add(Vec2d a, double c) { h[nh++] = {a, c, false}; }
+  void add(Vec2d a, double c) { h[nh++] = {a, c}; }
 };
 
 void zonesOf(const Groove& g, std::vector<Zone>& zones) {
@@ -397,13 +391,9 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   }
   for (Piece& pc : pieces_) {
     pc.lo = pc.hi = pc.poly.v[0];
+    pc.poly.extend(pc.lo, pc.hi);
     pc.zmax = -1e300;
-    for (int k = 0; k < pc.poly.n; ++k) {
-      Vec2d q = pc.poly.v[size_t(k)];
-      pc.lo = Vec2d(std::min(pc.lo.x, q.x), std::min(pc.lo.y, q.y));
-      pc.hi = Vec2d(std::max(pc.hi.x, q.x), std::max(pc.hi.y, q.y));
-      pc.zmax = std::max(pc.zmax, pc.plane.at(q));
-    }
+    for (int k = 0; k < pc.poly.n; ++k) pc.zmax = std::max(pc.zmax, pc.plane.at(pc.poly.v[size_t(k)]));
   }
   // Steps of the composite: along every piece edge, the surface just outside higher than the
   // piece. Each wall is found once, from its low side.
@@ -513,11 +503,7 @@ namespace {
 void boxOf(const std::vector<Poly>& frags, Vec2d& lo, Vec2d& hi) {
   lo = Vec2d(1e300, 1e300);
   hi = Vec2d(-1e300, -1e300);
-  for (const Poly& f : frags)
-    for (int k = 0; k < f.n; ++k) {
-      lo = Vec2d(std::min(lo.x, f.v[size_t(k)].x), std::min(lo.y, f.v[size_t(k)].y));
-      hi = Vec2d(std::max(hi.x, f.v[size_t(k)].x), std::max(hi.y, f.v[size_t(k)].y));
-    }
+  for (const Poly& f : frags) f.extend(lo, hi);
 }
 }  // namespace
 

@@ -38,7 +38,8 @@ struct Poly {
   int n = 0;
   bool empty() const { return n < 3; }
   double area() const;  // signed (> 0 counter-clockwise)
-  Vec2d centroid() const;
+  // Grows the box [lo, hi] to hold every vertex.
+  void extend(Vec2d& lo, Vec2d& hi) const;
   void push(Vec2d p) {
     if (n < kMaxVertices) v[size_t(n++)] = p;
   }

@@ -674,20 +674,15 @@ class Tracer {
     fp.push((a2 - a1) * 0.5);
     if (fp.area() < 0) std::reverse(fp.v.begin(), fp.v.begin() + fp.n);
     if (!(fp.area() > 1e-16)) return false;
-    double x0 = 1e30, x1 = -1e30, y0 = 1e30, y1 = -1e30;
-    for (int i = 0; i < fp.n; ++i) {
-      x0 = std::min(x0, fp.v[size_t(i)].x);
-      x1 = std::max(x1, fp.v[size_t(i)].x);
-      y0 = std::min(y0, fp.v[size_t(i)].y);
-      y1 = std::max(y1, fp.v[size_t(i)].y);
-    }
+    Vec2d lo = fp.v[0], hi = fp.v[0];
+    fp.extend(lo, hi);
     // The region whose surface can be seen, or can hide or shadow what is seen (§4.2.1).
     const double R = double(enlarge) + 1e-3;
     ga::Poly region;
-    region.push({x0 - R, y0 - R});
-    region.push({x1 + R, y0 - R});
-    region.push({x1 + R, y1 + R});
-    region.push({x0 - R, y1 + R});
+    region.push({lo.x - R, lo.y - R});
+    region.push({hi.x + R, lo.y - R});
+    region.push({hi.x + R, hi.y + R});
+    region.push({lo.x - R, hi.y + R});
     thread_local std::vector<Profile> profiles;
     thread_local std::vector<ga::Groove> grooves;
     profiles.clear();

@@ -289,9 +289,12 @@ class Tracer {
   // The path from `ray` on, with throughput beta and the previous vertex's BSDF pdf (for MIS on
   // emitters the ray hits). `depth0` is the number of surface bounces before this ray.
   // `prev_nl` is the number of light samples the previous vertex took per light (MIS counts; the
-  // expected number where they were a random subset).
+  // expected number where they were a random subset). `prev_share` scales the MIS weight of an
+  // emitter hit by this first ray: the share of its strategy's directions that this set of rays
+  // is (a groove footprint's continued BSDF directions share the strategy with its direct-only
+  // lobe directions, shadeLevel).
   Rgb continuePath(DiffRay ray, Rgb beta, float prev_pdf, bool prev_specular, Vec3f prev_p, int depth0, Rng& rng,
-                   uint64_t& nrays, float prev_nl) const {
+                   uint64_t& nrays, float prev_nl, float prev_share = 1.0f) const {
     Rgb L(0.0f);
     RTCScene scene = s_.part->scene();
     for (int depth = depth0;; ++depth) {
@@ -312,17 +315,18 @@ class Tracer {
       if (light_hit >= 0) {
         const AreaLight& al = s_.lights.area[light_hit];
         float w = 1.0f;
-        if (!prev_specular) w = powerHeuristic(prev_pdf, prev_nl * al.pdfSolidAngle(prev_p, ray.o + ray.d * tl));
+        if (!prev_specular) w = prev_share * powerHeuristic(prev_pdf, prev_nl * al.pdfSolidAngle(prev_p, ray.o + ray.d * tl));
         L += beta * al.radiance * w;
         break;
       }
       if (!h.hit) {
         if (s_.lights.env) {
-          float w = prev_specular ? 1.0f : powerHeuristic(prev_pdf, prev_nl * s_.lights.env->pdf(ray.d));
+          float w = prev_specular ? 1.0f : prev_share * powerHeuristic(prev_pdf, prev_nl * s_.lights.env->pdf(ray.d));
           L += beta * s_.lights.env->eval(ray.d) * w;
         }
         break;
       }
+      prev_share = 1.0f;
       if (depth >= st_.max_bounces) break;
       SurfacePoint sp = surface(h, ray, has_defects_ || has_paint_);
       Vec3f wo_w = -ray.d;
@@ -795,6 +799,9 @@ class Tracer {
     }
     int layer(const Portion& p) const { return sec.layer[size_t(p.facet)]; }
     double lit(const Portion& p, size_t li) const { return shadow[li].litFraction(p, gs.fp); }
+    double litToward(const Portion& p, Vec3f d) const {
+      return groove::litFraction(sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
+    }
     groove::Scatter scatter(const Portion& p, Vec3f d) const {
       return groove::scatter(sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
     }
@@ -811,6 +818,7 @@ class Tracer {
     }
     int layer(const Portion& p) const { return gs.surface.pieces()[size_t(p.piece)].layer; }
     double lit(const Portion& p, size_t li) const { return gs.surface.litFraction(p, light[li], li); }
+    double litToward(const Portion& p, Vec3f d) const { return gs.surface.litFraction(p, local(d)); }
     groove::area::Hits scatter(const Portion& p, Vec3f d) const { return gs.surface.scatter(p, local(d)); }
   };
 
@@ -859,6 +867,12 @@ class Tracer {
     // Directions sampled from the footprint at the first level (stratified over the portions);
     // deeper levels follow one.
     const int nb = level == 0 ? st_.groove_bsdf_samples : 1;
+    // And at the first level nm more, four per portion up to groove_lobe_samples, for the direct
+    // light only (not continued; lobeDirect): the BSDF strategy's count in the MIS weights is
+    // nb + nm directions, of which the continued ones take the share nb / (nb + nm) and these
+    // nm / (nb + nm).
+    const int nm = level == 0 ? std::min(st_.groove_lobe_samples, 4 * int(portions.size())) : 0;
+    const float nbm = float(nb + nm);
     // Deeper levels are reached by many first-level directions, so each takes one of nq subsets
     // of every light's samples: a diagonal of the nq x nq strata ((column + row) mod nq), chosen at
     // random. Every sample is used with probability 1/nq, so the estimate stays unbiased with
@@ -887,10 +901,11 @@ class Tracer {
         double lit = geo.lit(p, li);
         if (!(lit > 0)) continue;
         Rgb f = bsdf.eval(wi);
-        float w = powerHeuristic(nl_eff * l.pdf, float(nb * p.weight / wsum) * bsdf.pdf(wi));
+        float w = powerHeuristic(nl_eff * l.pdf, float(nbm * p.weight / wsum) * bsdf.pdf(wi));
         L += beta * f * l.Le * float(p.weight * lit * wi.z * w / (nl_eff * l.pdf));
       }
     }
+    if (nm > 0) L += lobeDirect(geo, top, portions, wsum, wo_w, beta, nm, nbm, nl_eff, rng, nrays);
     // At the last level the BSDF directions are still sampled (they carry their MIS share of the
     // direct light through the escaped rays), but the groove is not entered again.
     const bool last = level >= std::min(st_.max_groove_bounces, st_.max_bounces - 1);
@@ -944,10 +959,87 @@ class Tracer {
         r.o = origin;
         r.d = d;
         r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
-        L += continuePath(r, beta_next * float(sc.escaped), float(nb * p.weight / wsum) * bs.pdf, false, origin,
-                          1 + level, rng, nrays, nl_eff);
+        L += continuePath(r, beta_next * float(sc.escaped), float(nbm * p.weight / wsum) * bs.pdf, false, origin,
+                          1 + level, rng, nrays, nl_eff, float(nb) / nbm);
       }
       if (!last && !sc.hits.empty()) L += shadeLevel(geo, top, sc.hits, -d, beta_next, level + 1, ls, rng, nrays);
+    }
+    return L;
+  }
+
+  // Direct light from nm BSDF directions of the portions (chosen by weight, Latin-hypercube
+  // stratified like the continued ones), not continued: only the emitter each one meets counts.
+  // Under a long light and a sharp lobe (a smooth wall facing a bar light) the light samples,
+  // spread over the whole light, seldom fall inside a facet's lobe, and the few continued
+  // directions of a small portion decide alone whether it shows the light; these directions
+  // find the light where the lobe meets it, at the cost of one shadow ray each and no path.
+  template <class Geometry>
+  Rgb lobeDirect(const Geometry& geo, const Material& top, const std::vector<typename Geometry::Portion>& portions,
+                 double wsum, Vec3f wo_w, Rgb beta, int nm, float nbm, float nl_eff, Rng& rng, uint64_t& nrays) const {
+    const GrooveSet& gs = geo.gs;
+    const Vec3f origin = gs.F + gs.W * (max_height_ + rayEpsilon(gs.F));
+    RTCScene scene = s_.part->scene();
+    int perm_local[2 * 64];
+    std::vector<int> perm_heap;
+    int* perm = perm_local;
+    if (nm > 64) {
+      perm_heap.resize(size_t(2 * nm));
+      perm = perm_heap.data();
+    }
+    for (int d = 0; d < 2; ++d) {
+      int* q = perm + d * nm;
+      for (int i = 0; i < nm; ++i) q[i] = i;
+      for (int i = nm - 1; i > 0; --i) std::swap(q[i], q[int(rng.uniform() * float(i + 1)) % (i + 1)]);
+    }
+    const float inv = 1.0f / float(nm);
+    Rgb L(0.0f);
+    for (int j = 0; j < nm; ++j) {
+      double u = (j + rng.uniformD()) / nm * wsum, acc = 0;
+      size_t pick = portions.size() - 1;
+      for (size_t i = 0; i < portions.size(); ++i) {
+        acc += portions[i].weight;
+        if (u < acc) {
+          pick = i;
+          break;
+        }
+      }
+      const auto& p = portions[pick];
+      if (!(p.weight > 0)) continue;
+      const Material& m = facetMaterial(gs, geo.layer(p), top);
+      Frame fr = Frame::fromNormalTangent(geo.normal(p), gs.T);
+      Vec3f wo = fr.toLocal(wo_w);
+      BsdfSample bs;
+      // The lobe choice takes the stratum of j itself (the portion choice is stratified by j too,
+      // and within one portion consecutive j are consecutive lobe strata).
+      float ul = std::min((float(j) + rng.uniform()) * inv, kOneMinusEps);
+      Vec2f ud{std::min((float(perm[j]) + rng.uniform()) * inv, kOneMinusEps),
+               std::min((float(perm[nm + j]) + rng.uniform()) * inv, kOneMinusEps)};
+      if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) continue;
+      Vec3f d = fr.toWorld(bs.wi);
+      if (dot(d, gs.W) <= 0) continue;
+      // The emitter the direction meets: the nearest area light, else the environment.
+      Rgb Le(0.0f);
+      float pl = 0, tl = kInf;
+      for (const AreaLight& al : s_.lights.area) {
+        float t;
+        if (al.intersect(origin, d, 0.0f, tl, t)) {
+          tl = t;
+          Le = al.radiance;
+          pl = al.pdfSolidAngle(origin, origin + d * t);
+        }
+      }
+      if (tl == kInf && s_.lights.env) {
+        Le = s_.lights.env->eval(d);
+        pl = s_.lights.env->pdf(d);
+      }
+      Rgb ratio = bs.f * (bs.wi.z / bs.pdf);
+      if (maxComponent(Le) <= 0 || !isFinite(ratio) || maxComponent(ratio) <= 0) continue;
+      double lit = geo.litToward(p, d);
+      if (!(lit > 0)) continue;
+      ++nrays;
+      if (occluded(scene, origin, d, 0.0f, tl == kInf ? kInf : tl * (1 - 1e-4f))) continue;
+      float w = (float(nm) / nbm) * powerHeuristic(float(nbm * p.weight / wsum) * bs.pdf, nl_eff * pl);
+      L += beta * ratio * Le * float(lit * wsum / nm * w);
     }
     return L;
   }

@@ -93,7 +93,7 @@ LIGHTS = {
 SCENES = [(layout, light) for layout in ("parallel", "crossing", "ends") for light in ("ring", "bar")]
 
 
-def config(layout, light, mode, spp, resolution=96, seed=11, noise_seed=0, roughness=0.15):
+def config(layout, light, mode, spp, resolution=96, seed=11, noise_seed=0, roughness=0.15, fov_deg=5):
     """noise_seed: 0 for the renders under test; references use another value so that their noise
     is independent of theirs (the same seed would give geometry at N spp the first N samples of the
     reference's)."""
@@ -103,9 +103,9 @@ count: 1
 part: {type: plate, width_mm: 20, height_mm: 20}
 material: {type: metal, metal: aluminium, roughness: %g}
 lights:%s
-camera: {fov_deg: 5, position: [0, 0, 60], target: [0, 0, 0]}
+camera: {fov_deg: %g, position: [0, 0, 60], target: [0, 0, 0]}
 render: {resolution: [%d, %d], spp: %d, max_bounces: 4, scratches: %s, noise_seed: %d}
-defects:%s""" % (layout, light, seed, roughness, LIGHTS[light], resolution, resolution, spp, mode, noise_seed,
+defects:%s""" % (layout, light, seed, roughness, LIGHTS[light], fov_deg, resolution, resolution, spp, mode, noise_seed,
                  LAYOUTS[layout])
 
 

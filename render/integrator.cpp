@@ -109,6 +109,48 @@ float powerHeuristic(float a, float b) {
 
 Vec3f reflect(Vec3f d, Vec3f n) { return d - n * (2.0f * dot(d, n)); }
 
+// Latin-hypercube strata for n samples in `dims` dimensions: each dimension is cut into n
+// intervals, and sample j takes interval perm_d[j] of dimension d, for independent random
+// permutations perm_d. On the stack up to 64 samples (the groove recursion re-enters its users).
+class LatinStrata {
+ public:
+  LatinStrata(int n, int dims, Rng& rng) : n_(n), p_(local_) {
+    if (n * dims > int(sizeof(local_) / sizeof(int))) {
+      heap_.resize(size_t(n * dims));
+      p_ = heap_.data();
+    }
+    for (int d = 0; d < dims; ++d) {
+      int* q = p_ + d * n;
+      for (int i = 0; i < n; ++i) q[i] = i;
+      for (int i = n - 1; i > 0; --i) std::swap(q[i], q[int(rng.uniform() * float(i + 1)) % (i + 1)]);
+    }
+  }
+  LatinStrata(const LatinStrata&) = delete;
+  LatinStrata& operator=(const LatinStrata&) = delete;
+  // Sample j's coordinate in dimension d: a uniform point of its interval, below 1.
+  float at(int d, int j, Rng& rng) const {
+    return std::min((float(p_[d * n_ + j]) + rng.uniform()) / float(n_), kOneMinusEps);
+  }
+
+ private:
+  int n_;
+  int local_[3 * 64];
+  std::vector<int> heap_;
+  int* p_;
+};
+
+// Index of the item whose weight interval holds u (0 <= u < the weights' sum); the last item when
+// rounding leaves u past the sum.
+template <class Item>
+size_t pickByWeight(const std::vector<Item>& items, double u) {
+  double acc = 0;
+  for (size_t i = 0; i < items.size(); ++i) {
+    acc += items[i].weight;
+    if (u < acc) return i;
+  }
+  return items.size() - 1;
+}
+
 // Everything the integrator needs to know about a surface point.
 struct SurfacePoint {
   Vec3f p, ng, ns;  // ng and ns face the incoming ray
@@ -775,6 +817,10 @@ class Tracer {
     return true;
   }
 
+  // Where rays from a footprint's grooves start for the rest of the scene: above the highest
+  // pile-up at the footprint centre.
+  Vec3f aboveGrooves(const GrooveSet& gs) const { return gs.F + gs.W * (max_height_ + rayEpsilon(gs.F)); }
+
   // One light sample shared by every facet of the footprint.
   struct LightSample {
     Vec3f wl;      // world direction from the footprint centre
@@ -909,34 +955,14 @@ class Tracer {
     // At the last level the BSDF directions are still sampled (they carry their MIS share of the
     // direct light through the escaped rays), but the groove is not entered again.
     const bool last = level >= std::min(st_.max_groove_bounces, st_.max_bounces - 1);
-    Vec3f origin = gs.F + gs.W * (max_height_ + rayEpsilon(gs.F));
-    // Latin-hypercube strata for the portion choice, the lobe choice and the direction: each of
-    // the four dimensions is stratified into nb intervals, paired by independent permutations.
-    // (A buffer on the stack: the recursion below re-enters this function.)
-    int perm_local[3 * 64];
-    std::vector<int> perm_heap;
-    int* perm = perm_local;
-    if (nb > 64) {
-      perm_heap.resize(size_t(3 * nb));
-      perm = perm_heap.data();
-    }
-    for (int d = 0; d < 3; ++d) {
-      int* p = perm + d * nb;
-      for (int i = 0; i < nb; ++i) p[i] = i;
-      for (int i = nb - 1; i > 0; --i) std::swap(p[i], p[int(rng.uniform() * float(i + 1)) % (i + 1)]);
-    }
+    Vec3f origin = aboveGrooves(gs);
+    // Latin-hypercube strata for the lobe choice and the direction; the portion choice takes
+    // stratum j of the weights.
+    LatinStrata lhs(nb, 3, rng);
     for (int j = 0; j < nb; ++j) {
       // A portion chosen by weight, a BSDF direction from it, then the portions that direction
       // meets inside the groove (next level) and the share that escapes (an ordinary ray).
-      double u = (j + rng.uniformD()) / nb * wsum, acc = 0;
-      size_t pick = portions.size() - 1;
-      for (size_t i = 0; i < portions.size(); ++i) {
-        acc += portions[i].weight;
-        if (u < acc) {
-          pick = i;
-          break;
-        }
-      }
+      size_t pick = pickByWeight(portions, (j + rng.uniformD()) / nb * wsum);
       const auto& p = portions[pick];
       if (!(p.weight > 0)) continue;
       Vec3f N = geo.normal(p);
@@ -944,10 +970,8 @@ class Tracer {
       Frame fr = Frame::fromNormalTangent(N, gs.T);
       Vec3f wo = fr.toLocal(wo_w);
       BsdfSample bs;
-      const float inv = 1.0f / float(nb);
-      float ul = std::min((float(perm[j]) + rng.uniform()) * inv, kOneMinusEps);
-      Vec2f ud{std::min((float(perm[nb + j]) + rng.uniform()) * inv, kOneMinusEps),
-               std::min((float(perm[2 * nb + j]) + rng.uniform()) * inv, kOneMinusEps)};
+      float ul = lhs.at(0, j, rng);
+      Vec2f ud{lhs.at(1, j, rng), lhs.at(2, j, rng)};
       if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) continue;
       Vec3f d = fr.toWorld(bs.wi);
       Rgb ratio = bs.f * (bs.wi.z / bs.pdf);
@@ -977,43 +1001,20 @@ class Tracer {
   Rgb lobeDirect(const Geometry& geo, const Material& top, const std::vector<typename Geometry::Portion>& portions,
                  double wsum, Vec3f wo_w, Rgb beta, int nm, float nbm, float nl_eff, Rng& rng, uint64_t& nrays) const {
     const GrooveSet& gs = geo.gs;
-    const Vec3f origin = gs.F + gs.W * (max_height_ + rayEpsilon(gs.F));
+    const Vec3f origin = aboveGrooves(gs);
     RTCScene scene = s_.part->scene();
-    int perm_local[2 * 64];
-    std::vector<int> perm_heap;
-    int* perm = perm_local;
-    if (nm > 64) {
-      perm_heap.resize(size_t(2 * nm));
-      perm = perm_heap.data();
-    }
-    for (int d = 0; d < 2; ++d) {
-      int* q = perm + d * nm;
-      for (int i = 0; i < nm; ++i) q[i] = i;
-      for (int i = nm - 1; i > 0; --i) std::swap(q[i], q[int(rng.uniform() * float(i + 1)) % (i + 1)]);
-    }
-    const float inv = 1.0f / float(nm);
+    LatinStrata lhs(nm, 3, rng);
     Rgb L(0.0f);
     for (int j = 0; j < nm; ++j) {
-      double u = (j + rng.uniformD()) / nm * wsum, acc = 0;
-      size_t pick = portions.size() - 1;
-      for (size_t i = 0; i < portions.size(); ++i) {
-        acc += portions[i].weight;
-        if (u < acc) {
-          pick = i;
-          break;
-        }
-      }
+      size_t pick = pickByWeight(portions, (j + rng.uniformD()) / nm * wsum);
       const auto& p = portions[pick];
       if (!(p.weight > 0)) continue;
       const Material& m = facetMaterial(gs, geo.layer(p), top);
       Frame fr = Frame::fromNormalTangent(geo.normal(p), gs.T);
       Vec3f wo = fr.toLocal(wo_w);
       BsdfSample bs;
-      // The lobe choice takes the stratum of j itself (the portion choice is stratified by j too,
-      // and within one portion consecutive j are consecutive lobe strata).
-      float ul = std::min((float(j) + rng.uniform()) * inv, kOneMinusEps);
-      Vec2f ud{std::min((float(perm[j]) + rng.uniform()) * inv, kOneMinusEps),
-               std::min((float(perm[nm + j]) + rng.uniform()) * inv, kOneMinusEps)};
+      float ul = lhs.at(0, j, rng);
+      Vec2f ud{lhs.at(1, j, rng), lhs.at(2, j, rng)};
       if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) continue;
       Vec3f d = fr.toWorld(bs.wi);
       if (dot(d, gs.W) <= 0) continue;
@@ -1052,7 +1053,7 @@ class Tracer {
     // facet; the rest of the scene is tested once per sample).
     thread_local std::vector<LightSample> ls;
     ls.clear();
-    Vec3f origin = gs.F + gs.W * (max_height_ + rayEpsilon(gs.F));
+    Vec3f origin = aboveGrooves(gs);
     RTCScene scene = s_.part->scene();
     // nl stratified samples per light (stratifiedSample); each carries 1/nl of the estimate and
     // the MIS weights count nl light samples per BSDF sample.

@@ -903,11 +903,14 @@ class Tracer {
   }
 
   // One level of the recursion: `portions` carry absolute footprint weights, seen from direction
-  // wo_w, with throughput beta per unit weight.
+  // wo_w, with throughput beta per unit weight. The direct light on them (the light samples and
+  // the lights that their BSDF directions meet) is scaled by `direct_scale`: at the second level
+  // two sets of first-level directions estimate it, each with its share (lobeDirect). With
+  // `direct_only`, nothing more is estimated: no path is continued and no groove entered again.
   template <class Geometry>
   Rgb shadeLevel(const Geometry& geo, const Material& top, const std::vector<typename Geometry::Portion>& portions,
-                 Vec3f wo_w, Rgb beta, int level, const std::vector<LightSample>& ls, Rng& rng,
-                 uint64_t& nrays) const {
+                 Vec3f wo_w, Rgb beta, int level, const std::vector<LightSample>& ls, Rng& rng, uint64_t& nrays,
+                 float direct_scale = 1.0f, bool direct_only = false) const {
     const GrooveSet& gs = geo.gs;
     const int nl = st_.groove_light_samples;
     // Directions sampled from the footprint at the first level (stratified over the portions);
@@ -917,7 +920,7 @@ class Tracer {
     // light only (not continued; lobeDirect): the BSDF strategy's count in the MIS weights is
     // nb + nm directions, of which the continued ones take the share nb / (nb + nm) and these
     // nm / (nb + nm).
-    const int nm = level == 0 ? std::min(st_.groove_lobe_samples, 4 * int(portions.size())) : 0;
+    const int nm = level == 0 && !direct_only ? std::min(st_.groove_lobe_samples, 4 * int(portions.size())) : 0;
     const float nbm = float(nb + nm);
     // Deeper levels are reached by many first-level directions, so each takes one of nq subsets
     // of every light's samples: a diagonal of the nq x nq strata ((column + row) mod nq), chosen at
@@ -948,13 +951,13 @@ class Tracer {
         if (!(lit > 0)) continue;
         Rgb f = bsdf.eval(wi);
         float w = powerHeuristic(nl_eff * l.pdf, float(nbm * p.weight / wsum) * bsdf.pdf(wi));
-        L += beta * f * l.Le * float(p.weight * lit * wi.z * w / (nl_eff * l.pdf));
+        L += beta * f * l.Le * float(p.weight * lit * wi.z * w * direct_scale / (nl_eff * l.pdf));
       }
     }
-    if (nm > 0) L += lobeDirect(geo, top, portions, wsum, wo_w, beta, nm, nbm, nl_eff, rng, nrays);
     // At the last level the BSDF directions are still sampled (they carry their MIS share of the
     // direct light through the escaped rays), but the groove is not entered again.
     const bool last = level >= std::min(st_.max_groove_bounces, st_.max_bounces - 1);
+    if (nm > 0) L += lobeDirect(geo, top, portions, wsum, wo_w, beta, nm, nbm, nl_eff, !last, ls, rng, nrays);
     Vec3f origin = aboveGrooves(gs);
     // Latin-hypercube strata for the lobe choice and the direction; the portion choice takes
     // stratum j of the weights.
@@ -978,31 +981,45 @@ class Tracer {
       if (!isFinite(ratio) || maxComponent(ratio) <= 0) continue;
       auto sc = geo.scatter(p, d);
       Rgb beta_next = beta * ratio * float(wsum / (p.weight * nb));
+      if (direct_only) {
+        if (sc.escaped > 0 && dot(d, gs.W) > 0)
+          L += beta_next * float(sc.escaped * direct_scale) *
+               emitterToward(origin, d, float(nbm * p.weight / wsum) * bs.pdf, nl_eff, nrays);
+        continue;
+      }
       if (sc.escaped > 0 && dot(d, gs.W) > 0) {
         DiffRay r;
         r.o = origin;
         r.d = d;
         r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
         L += continuePath(r, beta_next * float(sc.escaped), float(nbm * p.weight / wsum) * bs.pdf, false, origin,
-                          1 + level, rng, nrays, nl_eff, float(nb) / nbm);
+                          1 + level, rng, nrays, nl_eff, direct_scale * float(nb) / nbm);
       }
-      if (!last && !sc.hits.empty()) L += shadeLevel(geo, top, sc.hits, -d, beta_next, level + 1, ls, rng, nrays);
+      // The next level's direct light is shared with the direct-only directions when they were
+      // followed there (lobeDirect), deeper levels' is not.
+      if (!last && !sc.hits.empty())
+        L += shadeLevel(geo, top, sc.hits, -d, beta_next, level + 1, ls, rng, nrays, level == 0 ? float(nb) / nbm : 1.0f);
     }
     return L;
   }
 
   // Direct light from nm BSDF directions of the portions (chosen by weight, Latin-hypercube
-  // stratified like the continued ones), not continued: only the emitter each one meets counts.
-  // Under a long light and a sharp lobe (a smooth wall facing a bar light) the light samples,
-  // spread over the whole light, seldom fall inside a facet's lobe, and the few continued
-  // directions of a small portion decide alone whether it shows the light; these directions
-  // find the light where the lobe meets it, at the cost of one shadow ray each and no path.
+  // stratified like the continued ones), not continued as paths: the share of a direction that
+  // escapes the groove counts only the emitter it meets, and with `bounce` the share that meets
+  // another wall counts only that wall's direct light (its light samples and the lights met by its
+  // BSDF direction, shadeLevel with direct_only). Both are also estimated by the continued
+  // directions; the two sets take the shares nm / (nb + nm) and nb / (nb + nm) of them.
+  // Where they help: under a long light the light samples, spread over the whole light, seldom
+  // fall inside the sharp lobe of a small portion, and the few continued directions of that
+  // portion decide alone whether it shows the light; and the light that reaches the camera over
+  // two walls varies most with the first direction (where it meets the far wall, and whether that
+  // wall's lobe then meets the light). These directions cost a shadow ray each and no path.
   template <class Geometry>
   Rgb lobeDirect(const Geometry& geo, const Material& top, const std::vector<typename Geometry::Portion>& portions,
-                 double wsum, Vec3f wo_w, Rgb beta, int nm, float nbm, float nl_eff, Rng& rng, uint64_t& nrays) const {
+                 double wsum, Vec3f wo_w, Rgb beta, int nm, float nbm, float nl_eff, bool bounce,
+                 const std::vector<LightSample>& ls, Rng& rng, uint64_t& nrays) const {
     const GrooveSet& gs = geo.gs;
     const Vec3f origin = aboveGrooves(gs);
-    RTCScene scene = s_.part->scene();
     LatinStrata lhs(nm, 3, rng);
     Rgb L(0.0f);
     for (int j = 0; j < nm; ++j) {
@@ -1017,32 +1034,41 @@ class Tracer {
       Vec2f ud{lhs.at(1, j, rng), lhs.at(2, j, rng)};
       if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) continue;
       Vec3f d = fr.toWorld(bs.wi);
-      if (dot(d, gs.W) <= 0) continue;
-      // The emitter the direction meets: the nearest area light, else the environment.
-      Rgb Le(0.0f);
-      float pl = 0, tl = kInf;
-      for (const AreaLight& al : s_.lights.area) {
-        float t;
-        if (al.intersect(origin, d, 0.0f, tl, t)) {
-          tl = t;
-          Le = al.radiance;
-          pl = al.pdfSolidAngle(origin, origin + d * t);
-        }
-      }
-      if (tl == kInf && s_.lights.env) {
-        Le = s_.lights.env->eval(d);
-        pl = s_.lights.env->pdf(d);
-      }
       Rgb ratio = bs.f * (bs.wi.z / bs.pdf);
-      if (maxComponent(Le) <= 0 || !isFinite(ratio) || maxComponent(ratio) <= 0) continue;
-      double lit = geo.litToward(p, d);
-      if (!(lit > 0)) continue;
-      ++nrays;
-      if (occluded(scene, origin, d, 0.0f, tl == kInf ? kInf : tl * (1 - 1e-4f))) continue;
-      float w = (float(nm) / nbm) * powerHeuristic(float(nbm * p.weight / wsum) * bs.pdf, nl_eff * pl);
-      L += beta * ratio * Le * float(lit * wsum / nm * w);
+      if (!isFinite(ratio) || maxComponent(ratio) <= 0) continue;
+      auto sc = geo.scatter(p, d);
+      Rgb beta_k = beta * ratio * float(wsum / (p.weight * nm));
+      const float share = float(nm) / nbm;
+      if (sc.escaped > 0 && dot(d, gs.W) > 0)
+        L += beta_k * float(sc.escaped * share) *
+             emitterToward(origin, d, float(nbm * p.weight / wsum) * bs.pdf, nl_eff, nrays);
+      if (bounce && !sc.hits.empty()) L += shadeLevel(geo, top, sc.hits, -d, beta_k, 1, ls, rng, nrays, share, true);
     }
     return L;
+  }
+
+  // The radiance of the emitter that direction d from `origin` (above the grooves) meets
+  // unoccluded, the nearest area light or else the environment, times the MIS weight of a BSDF
+  // direction of density `density` (count x pdf) against nl light samples per light.
+  Rgb emitterToward(Vec3f origin, Vec3f d, float density, float nl, uint64_t& nrays) const {
+    Rgb Le(0.0f);
+    float pl = 0, tl = kInf;
+    for (const AreaLight& al : s_.lights.area) {
+      float t;
+      if (al.intersect(origin, d, 0.0f, tl, t)) {
+        tl = t;
+        Le = al.radiance;
+        pl = al.pdfSolidAngle(origin, origin + d * t);
+      }
+    }
+    if (tl == kInf && s_.lights.env) {
+      Le = s_.lights.env->eval(d);
+      pl = s_.lights.env->pdf(d);
+    }
+    if (maxComponent(Le) <= 0) return Rgb(0.0f);
+    ++nrays;
+    if (occluded(s_.part->scene(), origin, d, 0.0f, tl == kInf ? kInf : tl * (1 - 1e-4f))) return Rgb(0.0f);
+    return Le * powerHeuristic(density, nl * pl);
   }
 
   Rgb shadeGrooves(const std::vector<GrooveSet>& sets, const Material& top, Vec3f wo_w, Rng& rng,

@@ -357,13 +357,15 @@ class Tracer {
       if (light_hit >= 0) {
         const AreaLight& al = s_.lights.area[light_hit];
         float w = 1.0f;
-        if (!prev_specular) w = prev_share * powerHeuristic(prev_pdf, prev_nl * al.pdfSolidAngle(prev_p, ray.o + ray.d * tl));
+        if (!prev_specular)
+          w = prev_share * powerHeuristic(prev_pdf, prev_nl * al.pdfSolidAngle(prev_p, ray.o + ray.d * tl));
         L += beta * al.radiance * w;
         break;
       }
       if (!h.hit) {
         if (s_.lights.env) {
-          float w = prev_specular ? 1.0f : prev_share * powerHeuristic(prev_pdf, prev_nl * s_.lights.env->pdf(ray.d));
+          float w =
+              prev_specular ? 1.0f : prev_share * powerHeuristic(prev_pdf, prev_nl * s_.lights.env->pdf(ray.d));
           L += beta * s_.lights.env->eval(ray.d) * w;
         }
         break;
@@ -998,7 +1000,8 @@ class Tracer {
       // The next level's direct light is shared with the direct-only directions when they were
       // followed there (lobeDirect), deeper levels' is not.
       if (!last && !sc.hits.empty())
-        L += shadeLevel(geo, top, sc.hits, -d, beta_next, level + 1, ls, rng, nrays, level == 0 ? float(nb) / nbm : 1.0f);
+        L += shadeLevel(geo, top, sc.hits, -d, beta_next, level + 1, ls, rng, nrays,
+                        level == 0 ? float(nb) / nbm : 1.0f);
     }
     return L;
   }

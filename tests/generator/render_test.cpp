@@ -306,7 +306,8 @@ TEST(Render, GrooveLobeSamplesKeepTheMeanAndLowerTheNoise) {
     };
     double t0 = 0, t32 = 0;
     const double v0 = stats(0, t0), v32 = stats(32, t32);
-    std::printf("[          ] fov %s: %zu scratched pixels; total with/without lobe samples %.4f; variance %.3g / %.3g\n",
+    std::printf("[          ] fov %s: %zu scratched pixels; total with/without lobe samples %.4f; "
+                "variance %.3g / %.3g\n",
                 fov.c_str(), px.size(), t32 / t0, v32, v0);
     // Other seed sets gave totals within 0.5% of each other close up and within 1.8% far (0.975
     // to 1.018), and variances 0.53 to 0.67 of those without.

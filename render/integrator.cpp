@@ -838,6 +838,7 @@ class Tracer {
   // 1-D line sampling over one merged section (Bosch §4.2.3).
   struct LineGeometry {
     using Portion = groove::Portion;
+    using Scatter = groove::Scatter;
     const GrooveSet& gs;
     const groove::Section& sec;
     const std::vector<groove::Shadowing>& shadow;  // per light sample
@@ -857,6 +858,7 @@ class Tracer {
   // Area sampling with polygons at crossings and ends (Bosch §4.2.4).
   struct AreaGeometry {
     using Portion = groove::area::Portion;
+    using Scatter = groove::area::Hits;
     const GrooveSet& gs;
     const std::vector<Vec3d>& light;  // per light sample, in (T, B, W)
     Vec3d local(Vec3f d) const { return Vec3d(dot(d, gs.T), dot(d, gs.B), dot(d, gs.W)); }
@@ -902,6 +904,39 @@ class Tracer {
       p.density /= wsum;
     }
     return shadeLevel(geo, top, portions, wo_w, Rgb(1.0f), 0, ls, rng, nrays);
+  }
+
+  // Direction j of n drawn from a footprint's portions: the portion by weight (stratum j of the
+  // weights' sum), then a BSDF direction from it (the lobe and direction strata of `lhs`), and
+  // where the rays leaving the portion that way go. False when the draw gives nothing.
+  template <class Geometry>
+  struct Drawn {
+    const typename Geometry::Portion* p = nullptr;
+    Vec3f d;          // world direction
+    float pdf = 0;    // its BSDF pdf (solid angle)
+    Rgb ratio;        // f cos / pdf
+    typename Geometry::Scatter sc;
+  };
+  template <class Geometry>
+  bool drawDirection(const Geometry& geo, const Material& top, const std::vector<typename Geometry::Portion>& portions,
+                     double wsum, Vec3f wo_w, const LatinStrata& lhs, int j, int n, Rng& rng,
+                     Drawn<Geometry>& out) const {
+    const auto& p = portions[pickByWeight(portions, (j + rng.uniformD()) / n * wsum)];
+    if (!(p.weight > 0)) return false;
+    const Material& m = facetMaterial(geo.gs, geo.layer(p), top);
+    Frame fr = Frame::fromNormalTangent(geo.normal(p), geo.gs.T);
+    Vec3f wo = fr.toLocal(wo_w);
+    BsdfSample bs;
+    float ul = lhs.at(0, j, rng);
+    Vec2f ud{lhs.at(1, j, rng), lhs.at(2, j, rng)};
+    if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) return false;
+    out.p = &p;
+    out.d = fr.toWorld(bs.wi);
+    out.pdf = bs.pdf;
+    out.ratio = bs.f * (bs.wi.z / bs.pdf);
+    if (!isFinite(out.ratio) || maxComponent(out.ratio) <= 0) return false;
+    out.sc = geo.scatter(p, out.d);
+    return true;
   }
 
   // One level of the recursion: `portions` carry absolute footprint weights, seen from direction
@@ -967,26 +1002,16 @@ class Tracer {
     for (int j = 0; j < nb; ++j) {
       // A portion chosen by weight, a BSDF direction from it, then the portions that direction
       // meets inside the groove (next level) and the share that escapes (an ordinary ray).
-      size_t pick = pickByWeight(portions, (j + rng.uniformD()) / nb * wsum);
-      const auto& p = portions[pick];
-      if (!(p.weight > 0)) continue;
-      Vec3f N = geo.normal(p);
-      const Material& m = facetMaterial(gs, geo.layer(p), top);
-      Frame fr = Frame::fromNormalTangent(N, gs.T);
-      Vec3f wo = fr.toLocal(wo_w);
-      BsdfSample bs;
-      float ul = lhs.at(0, j, rng);
-      Vec2f ud{lhs.at(1, j, rng), lhs.at(2, j, rng)};
-      if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) continue;
-      Vec3f d = fr.toWorld(bs.wi);
-      Rgb ratio = bs.f * (bs.wi.z / bs.pdf);
-      if (!isFinite(ratio) || maxComponent(ratio) <= 0) continue;
-      auto sc = geo.scatter(p, d);
-      Rgb beta_next = beta * ratio * float(wsum / (p.weight * nb));
+      Drawn<Geometry> dr;
+      if (!drawDirection(geo, top, portions, wsum, wo_w, lhs, j, nb, rng, dr)) continue;
+      const auto& p = *dr.p;
+      const Vec3f d = dr.d;
+      const auto& sc = dr.sc;
+      Rgb beta_next = beta * dr.ratio * float(wsum / (p.weight * nb));
       if (direct_only) {
         if (sc.escaped > 0 && dot(d, gs.W) > 0)
           L += beta_next * float(sc.escaped * direct_scale) *
-               emitterToward(origin, d, float(nbm * p.weight / wsum) * bs.pdf, nl_eff, nrays);
+               emitterToward(origin, d, float(nbm * p.weight / wsum) * dr.pdf, nl_eff, nrays);
         continue;
       }
       if (sc.escaped > 0 && dot(d, gs.W) > 0) {
@@ -994,7 +1019,7 @@ class Tracer {
         r.o = origin;
         r.d = d;
         r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
-        L += continuePath(r, beta_next * float(sc.escaped), float(nbm * p.weight / wsum) * bs.pdf, false, origin,
+        L += continuePath(r, beta_next * float(sc.escaped), float(nbm * p.weight / wsum) * dr.pdf, false, origin,
                           1 + level, rng, nrays, nl_eff, direct_scale * float(nb) / nbm);
       }
       // The next level's direct light is shared with the direct-only directions when they were
@@ -1026,25 +1051,16 @@ class Tracer {
     LatinStrata lhs(nm, 3, rng);
     Rgb L(0.0f);
     for (int j = 0; j < nm; ++j) {
-      size_t pick = pickByWeight(portions, (j + rng.uniformD()) / nm * wsum);
-      const auto& p = portions[pick];
-      if (!(p.weight > 0)) continue;
-      const Material& m = facetMaterial(gs, geo.layer(p), top);
-      Frame fr = Frame::fromNormalTangent(geo.normal(p), gs.T);
-      Vec3f wo = fr.toLocal(wo_w);
-      BsdfSample bs;
-      float ul = lhs.at(0, j, rng);
-      Vec2f ud{lhs.at(1, j, rng), lhs.at(2, j, rng)};
-      if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) continue;
-      Vec3f d = fr.toWorld(bs.wi);
-      Rgb ratio = bs.f * (bs.wi.z / bs.pdf);
-      if (!isFinite(ratio) || maxComponent(ratio) <= 0) continue;
-      auto sc = geo.scatter(p, d);
-      Rgb beta_k = beta * ratio * float(wsum / (p.weight * nm));
+      Drawn<Geometry> dr;
+      if (!drawDirection(geo, top, portions, wsum, wo_w, lhs, j, nm, rng, dr)) continue;
+      const auto& p = *dr.p;
+      const Vec3f d = dr.d;
+      const auto& sc = dr.sc;
+      Rgb beta_k = beta * dr.ratio * float(wsum / (p.weight * nm));
       const float share = float(nm) / nbm;
       if (sc.escaped > 0 && dot(d, gs.W) > 0)
         L += beta_k * float(sc.escaped * share) *
-             emitterToward(origin, d, float(nbm * p.weight / wsum) * bs.pdf, nl_eff, nrays);
+             emitterToward(origin, d, float(nbm * p.weight / wsum) * dr.pdf, nl_eff, nrays);
       if (bounce && !sc.hits.empty()) L += shadeLevel(geo, top, sc.hits, -d, beta_k, 1, ls, rng, nrays, share, true);
     }
     return L;

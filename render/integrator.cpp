@@ -848,9 +848,6 @@ class Tracer {
     }
     int layer(const Portion& p) const { return sec.layer[size_t(p.facet)]; }
     double lit(const Portion& p, size_t li) const { return shadow[li].litFraction(p, gs.fp); }
-    double litToward(const Portion& p, Vec3f d) const {
-      return groove::litFraction(sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
-    }
     groove::Scatter scatter(const Portion& p, Vec3f d) const {
       return groove::scatter(sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
     }
@@ -868,7 +865,6 @@ class Tracer {
     }
     int layer(const Portion& p) const { return gs.surface.pieces()[size_t(p.piece)].layer; }
     double lit(const Portion& p, size_t li) const { return gs.surface.litFraction(p, light[li], li); }
-    double litToward(const Portion& p, Vec3f d) const { return gs.surface.litFraction(p, local(d)); }
     groove::area::Hits scatter(const Portion& p, Vec3f d) const { return gs.surface.scatter(p, local(d)); }
   };
 

@@ -114,7 +114,7 @@ Vec3f reflect(Vec3f d, Vec3f n) { return d - n * (2.0f * dot(d, n)); }
 // permutations perm_d. On the stack up to 64 samples (the groove recursion re-enters its users).
 class LatinStrata {
  public:
-  LatinStrata(int n, int dims, Rng& rng) : n_(n), p_(local_) {
+  LatinStrata(int n, int dims, Rng& rng) : n_(n), inv_(1.0f / float(n)), p_(local_) {
     if (n * dims > int(sizeof(local_) / sizeof(int))) {
       heap_.resize(size_t(n * dims));
       p_ = heap_.data();
@@ -129,11 +129,12 @@ class LatinStrata {
   LatinStrata& operator=(const LatinStrata&) = delete;
   // Sample j's coordinate in dimension d: a uniform point of its interval, below 1.
   float at(int d, int j, Rng& rng) const {
-    return std::min((float(p_[d * n_ + j]) + rng.uniform()) / float(n_), kOneMinusEps);
+    return std::min((float(p_[d * n_ + j]) + rng.uniform()) * inv_, kOneMinusEps);
   }
 
  private:
   int n_;
+  float inv_;
   int local_[3 * 64];
   std::vector<int> heap_;
   int* p_;
@@ -463,18 +464,15 @@ class Tracer {
       if (ns > 1) {
         // Split: ns BSDF directions (lobe and direction stratified as a Latin hypercube), each
         // continued as its own path carrying 1/ns of the throughput.
-        int perm[2][64];
+        // The lobe choice takes stratum j itself.
         const int n = std::min(ns, 64);
-        for (auto& p : perm) {
-          for (int i = 0; i < n; ++i) p[i] = i;
-          for (int i = n - 1; i > 0; --i) std::swap(p[i], p[int(rng.uniform() * float(i + 1)) % (i + 1)]);
-        }
+        LatinStrata lhs(n, 2, rng);
         const float inv = 1.0f / float(n);
         for (int j = 0; j < n; ++j) {
           BsdfSample bs;
           float ul = std::min((float(j) + rng.uniform()) * inv, kOneMinusEps);
-          Vec2f ud{std::min((float(perm[0][j]) + rng.uniform()) * inv, kOneMinusEps),
-                   std::min((float(perm[1][j]) + rng.uniform()) * inv, kOneMinusEps)};
+          float ux = lhs.at(0, j, rng);
+          Vec2f ud{ux, lhs.at(1, j, rng)};
           if (!sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) continue;
           Vec3f wi_w = fr.toWorld(bs.wi);
           if (dot(wi_w, sp.ng) <= 0) continue;
@@ -902,9 +900,7 @@ class Tracer {
     return shadeLevel(geo, top, portions, wo_w, Rgb(1.0f), 0, ls, rng, nrays);
   }
 
-  // Direction j of n drawn from a footprint's portions: the portion by weight (stratum j of the
-  // weights' sum), then a BSDF direction from it (the lobe and direction strata of `lhs`), and
-  // where the rays leaving the portion that way go. False when the draw gives nothing.
+  // A direction drawn from a footprint's portions (drawDirection).
   template <class Geometry>
   struct Drawn {
     const typename Geometry::Portion* p = nullptr;
@@ -913,6 +909,9 @@ class Tracer {
     Rgb ratio;        // f cos / pdf
     typename Geometry::Scatter sc;
   };
+  // Direction j of n drawn from a footprint's portions: the portion by weight (stratum j of the
+  // weights' sum), then a BSDF direction from it (the lobe and direction strata of `lhs`), and
+  // where the rays leaving the portion that way go. False when the draw gives nothing.
   template <class Geometry>
   bool drawDirection(const Geometry& geo, const Material& top, const std::vector<typename Geometry::Portion>& portions,
                      double wsum, Vec3f wo_w, const LatinStrata& lhs, int j, int n, Rng& rng,

@@ -272,7 +272,8 @@ Field buildSchema() {
                   "How scratches are rendered: groove = the footprint integrated over their cross-"
                   "sections (Bosch 2007; exact masking, shadowing and inter-reflection, few samples "
                   "needed); geometry = the explicit-geometry reference (the part re-meshed with the "
-                  "cross-sections cut in; flat parts only; needs many samples); normal_map = the "
+                  "cross-sections cut in, on any part; needs many samples, and memory: the door of "
+                  "configs/scratched_door.yaml becomes 21 million triangles); normal_map = the "
                   "slopes as a bump map without occlusion (the baseline of texture-based tools).")};
   root.fields.push_back(ren);
 

@@ -646,9 +646,10 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
                        "'defects': render.scratches: geometry cannot be combined with displaced dents");
     try {
       ScratchGeometryStats st;
-      s.scene.part = std::make_shared<PartGeometry>(scratchedPlanarMesh(ds.part->mesh(), scratches, {}, &st));
+      s.scene.part = std::make_shared<PartGeometry>(scratchedMesh(ds.part->mesh(), scratches, {}, &st));
       meta["scratches"]["triangles"] = st.triangles;
       meta["scratches"]["cell_mm"] = st.cell_mm;
+      meta["scratches"]["part_triangles_cut"] = st.part_triangles_cut;
     } catch (const std::runtime_error& e) {
       throw InputError(c.file, r["scratches"].line, r["scratches"].column, "'render.scratches': geometry: " + std::string(e.what()));
     }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <tuple>
 #include <stdexcept>
 #include <unordered_map>
@@ -23,66 +24,90 @@ float scratchHeight(const std::vector<const Scratch*>& scratches, Vec2f p) {
 
 namespace {
 
-struct Affine {
-  Vec3d o, u, v, n;  // p = o + u * uv.x + v * uv.y; n the winding normal
-  Vec2f lo, hi;      // the chart's rectangle
+// A part triangle as the re-mesher sees it (doubles: the chart of a large part spans a metre, and
+// its cells are micrometres).
+struct PartTri {
+  Vec2d t[3];   // UV corners
+  Vec3d p[3];   // positions
+  Vec3d n[3];   // outward unit normals at the corners: the mesh's, or the winding normal
+  Vec3d ng;     // unit winding normal (the outside)
+  Vec2d lo, hi; // UV box
+  double area2; // twice the signed UV area (< 0: the chart is mirrored here)
 };
 
-// The affine map from the chart to the part, or an error when the part is not flat and affine.
-Affine planarChart(const TriangleMesh& m) {
-  if (m.uvs.size() != m.positions.size() || m.triangleCount() == 0)
-    throw std::runtime_error("the part has no UV chart");
-  Affine a;
-  bool found = false;
-  double area_uv = 0;
-  Vec2f lo(1e30f, 1e30f), hi(-1e30f, -1e30f);
-  for (Vec2f t : m.uvs) {
-    lo = {std::min(lo.x, t.x), std::min(lo.y, t.y)};
-    hi = {std::max(hi.x, t.x), std::max(hi.y, t.y)};
+bool uvLess(Vec2d a, Vec2d b) { return std::tie(a.x, a.y) < std::tie(b.x, b.y); }
+double cross2(Vec2d a, Vec2d b) { return a.x * b.y - a.y * b.x; }
+
+// The rotation that takes unit vector a to unit vector b, applied to v (a and b not opposite).
+Vec3d turn(Vec3d a, Vec3d b, Vec3d v) {
+  const double c = dot(a, b);
+  if (c > 1 - 1e-15) return v;
+  const Vec3d w = cross(a, b);
+  return v * c + cross(w, v) + w * (dot(w, v) / (1 + c));
+}
+
+// A corner of a cell piece: its UV, the part-triangle edges it lies on (bit k: edge from corner k
+// to k + 1), and the values of the kink functions there.
+struct Vtx {
+  Vec2d uv;
+  unsigned on = 0;
+  std::vector<double> f;
+};
+
+// Cuts the polygon along the zero set of value `fi` of its vertices' f; keeps the side f >= 0
+// (keep_neg false) and, when `both`, also the side f <= 0. A new vertex lies on the edges that both
+// ends of its segment lie on, plus `on_bit`, and takes its f from `eval`.
+template <class Eval>
+void cutPolygon(std::vector<Vtx>& poly, size_t fi, unsigned on_bit, bool both, const Eval& eval,
+                std::vector<std::vector<Vtx>>& out) {
+  bool neg = false, pos = false;
+  for (const Vtx& v : poly) {
+    neg |= v.f[fi] < 0;
+    pos |= v.f[fi] > 0;
   }
-  for (size_t f = 0; f < m.triangleCount(); ++f) {
-    const uint32_t* id = &m.indices[3 * f];
-    Vec3d p0(m.positions[id[0]]), p1(m.positions[id[1]]), p2(m.positions[id[2]]);
-    Vec2d t0(m.uvs[id[0]].x, m.uvs[id[0]].y), t1(m.uvs[id[1]].x, m.uvs[id[1]].y), t2(m.uvs[id[2]].x, m.uvs[id[2]].y);
-    Vec2d e1 = t1 - t0, e2 = t2 - t0;
-    double det = e1.x * e2.y - e1.y * e2.x;
-    area_uv += 0.5 * std::fabs(det);
-    if (found || std::fabs(det) < 1e-9) continue;
-    Vec3d q1 = p1 - p0, q2 = p2 - p0;
-    // [u v] [e1 e2] = [q1 q2]
-    a.u = (q1 * e2.y - q2 * e1.y) / det;
-    a.v = (q2 * e1.x - q1 * e2.x) / det;
-    a.o = p0 - a.u * t0.x - a.v * t0.y;
-    Vec3d n = cross(q1, q2);
-    if (!(length(n) > 0)) continue;
-    a.n = n / length(n);
-    found = true;
+  if (!(neg && pos)) {
+    if (pos || both || !neg) out.push_back(std::move(poly));
+    return;
   }
-  if (!found) throw std::runtime_error("the part's UV chart is degenerate");
-  double size = std::max(1e-3, length(a.u) * (hi.x - lo.x) + length(a.v) * (hi.y - lo.y));
-  for (size_t i = 0; i < m.positions.size(); ++i) {
-    Vec3d p(m.positions[i]);
-    Vec3d q = a.o + a.u * double(m.uvs[i].x) + a.v * double(m.uvs[i].y);
-    if (length(p - q) > 1e-5 * size)
-      throw std::runtime_error("explicit scratch geometry needs a flat part whose UVs are an affine image of "
-                               "its positions (such as part: plate); this part is not (vertex " +
-                               std::to_string(i) + " is " + std::to_string(length(p - q)) + " mm off the plane)");
+  std::vector<Vtx> lo_side, hi_side;
+  for (size_t k = 0; k < poly.size(); ++k) {
+    const Vtx& p0 = poly[k];
+    const Vtx& p1 = poly[(k + 1) % poly.size()];
+    const double x0 = p0.f[fi], x1 = p1.f[fi];
+    if (!(x0 > 0)) lo_side.push_back(p0);
+    if (!(x0 < 0)) hi_side.push_back(p0);
+    if ((x0 < 0 && x1 > 0) || (x0 > 0 && x1 < 0)) {
+      // The crossing, computed from the segment's ends in a fixed order, so that the neighbouring
+      // piece finds the same point on a shared segment.
+      const bool swap = uvLess(p1.uv, p0.uv);
+      const Vtx& e0 = swap ? p1 : p0;
+      const Vtx& e1 = swap ? p0 : p1;
+      const double t = e0.f[fi] / (e0.f[fi] - e1.f[fi]);
+      Vtx c;
+      c.uv = e0.uv + (e1.uv - e0.uv) * t;
+      c.on = (p0.on & p1.on) | on_bit;
+      c.f = eval(c.uv, p0.f.size());
+      c.f[fi] = 0.0;
+      lo_side.push_back(c);
+      hi_side.push_back(std::move(c));
+    }
   }
-  double box = double(hi.x - lo.x) * double(hi.y - lo.y);
-  if (std::fabs(area_uv - box) > 1e-3 * box)
-    throw std::runtime_error("explicit scratch geometry needs a UV chart that fills its rectangle (a part with "
-                             "holes or a non-rectangular outline is not supported)");
-  a.lo = lo;
-  a.hi = hi;
-  return a;
+  if (both && lo_side.size() >= 3) out.push_back(std::move(lo_side));
+  if (hi_side.size() >= 3) out.push_back(std::move(hi_side));
 }
 
 }  // namespace
 
-TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<const Scratch*>& scratches,
-                                 const ScratchGeometryOptions& opt, ScratchGeometryStats* stats) {
-  const Affine a = planarChart(part);
-  const Vec2f lo = a.lo, hi = a.hi;
+TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scratch*>& scratches,
+                           const ScratchGeometryOptions& opt, ScratchGeometryStats* stats) {
+  if (part.uvs.size() != part.positions.size() || part.triangleCount() == 0)
+    throw std::runtime_error("the part has no UV chart");
+  const bool has_normals = part.normals.size() == part.positions.size();
+  Vec2d lo(1e300, 1e300), hi(-1e300, -1e300);
+  for (Vec2f t : part.uvs) {
+    lo = {std::min(lo.x, double(t.x)), std::min(lo.y, double(t.y))};
+    hi = {std::max(hi.x, double(t.x)), std::max(hi.y, double(t.y))};
+  }
   double cell = opt.cell_mm;
   if (!(cell > 0)) {
     double narrowest = 1e30;
@@ -92,24 +117,22 @@ TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<con
     }
     cell = narrowest < 1e30 ? std::max(5e-4, narrowest / 16.0) : 1.0;
   }
-  const double W = double(hi.x) - lo.x, H = double(hi.y) - lo.y;
-  int base_depth = 0;
-  while (std::max(W, H) / double(1 << base_depth) > cell && base_depth < 26) ++base_depth;
-  const int depth = base_depth;  // + kKinkLevels
+  const double W = std::max(hi.x - lo.x, 1e-9), H = std::max(hi.y - lo.y, 1e-9);
+  int depth = 0;
+  while (std::max(W, H) / double(1 << depth) > cell && depth < 26) ++depth;
   const double du = W / double(1 << depth), dv = H / double(1 << depth);
+  const uint32_t full = 1u << depth;
+  const double merge = 4.0 * std::max({std::fabs(lo.x), std::fabs(lo.y), std::fabs(hi.x), std::fabs(hi.y)}) *
+                       double(std::numeric_limits<float>::epsilon());
 
-  // Quadtree over the chart's rectangle. A cell is split while it is coarser than the finest level
-  // and some scratch's cross-section may reach into it.
-  // Cells at the finest level that hold a kink of a cross-section (a profile vertex line) may be
-  // split kKinkLevels levels further (0 = off: the exact facet normals below already remove the
-  // kink's glint; splitting only sharpens where the kink lies).
-  constexpr int kKinkLevels = 0;
-  auto reaches = [&](double u0, double v0, double u1, double v1, bool kinks_only) {
+  // Does some scratch's cross-section reach into the UV box? (With kinks_only, into a kink line
+  // of it: a profile vertex's offset, or an end.)
+  auto reaches = [&](Vec2d b0, Vec2d b1, bool kinks_only) {
     Box2 cb;
-    cb.lo = {float(u0), float(v0)};
-    cb.hi = {float(u1), float(v1)};
-    Vec2f c(float(0.5 * (u0 + u1)), float(0.5 * (v0 + v1)));
-    float half_diag = float(0.5 * std::hypot(u1 - u0, v1 - v0));
+    cb.lo = {float(b0.x), float(b0.y)};
+    cb.hi = {float(b1.x), float(b1.y)};
+    Vec2f c(float(0.5 * (b0.x + b1.x)), float(0.5 * (b0.y + b1.y)));
+    float half_diag = float(0.5 * std::hypot(b1.x - b0.x, b1.y - b0.y));
     for (const Scratch* s : scratches) {
       if (!s->support().overlaps(cb)) continue;
       float reach = float(s->referenceProfile().halfExtent()) * s->maxScale() + half_diag;
@@ -123,17 +146,84 @@ TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<con
     }
     return false;
   };
+
+  // The part's triangles: those no cross-section reaches are kept as they are.
+  std::vector<PartTri> cut;
+  std::vector<uint32_t> kept;
+  for (size_t f = 0; f < part.triangleCount(); ++f) {
+    const uint32_t* id = &part.indices[3 * f];
+    PartTri pt;
+    for (int k = 0; k < 3; ++k) {
+      pt.t[k] = Vec2d(part.uvs[id[k]].x, part.uvs[id[k]].y);
+      pt.p[k] = Vec3d(part.positions[id[k]]);
+    }
+    pt.lo = {std::min({pt.t[0].x, pt.t[1].x, pt.t[2].x}), std::min({pt.t[0].y, pt.t[1].y, pt.t[2].y})};
+    pt.hi = {std::max({pt.t[0].x, pt.t[1].x, pt.t[2].x}), std::max({pt.t[0].y, pt.t[1].y, pt.t[2].y})};
+    pt.area2 = cross2(pt.t[1] - pt.t[0], pt.t[2] - pt.t[0]);
+    const Vec3d g = cross(pt.p[1] - pt.p[0], pt.p[2] - pt.p[0]);
+    const double scale = std::max({pt.hi.x - pt.lo.x, pt.hi.y - pt.lo.y, 1e-30});
+    // A triangle without UV area or 3-D area carries no scratch (none can be placed on it).
+    if (!(std::fabs(pt.area2) > 1e-12 * scale * scale) || !(length(g) > 0) || !reaches(pt.lo, pt.hi, false)) {
+      kept.push_back(uint32_t(f));
+      continue;
+    }
+    pt.ng = g / length(g);
+    for (int k = 0; k < 3; ++k) {
+      Vec3d n = has_normals ? normalize(Vec3d(part.normals[id[k]])) : pt.ng;
+      pt.n[k] = dot(n, pt.ng) > 0 ? n : pt.ng;  // as the renderer: a normal facing inward is ignored
+    }
+    cut.push_back(pt);
+  }
+
+  // Quadtree over the chart's rectangle, only where triangles are cut. A cell is split while it
+  // is coarser than the finest level and some scratch's cross-section may reach into it.
   struct Leaf {
     uint32_t i0, j0, size;  // in finest-cell units
   };
+  auto corner = [&](uint32_t i, uint32_t j) {
+    return Vec2d(i == full ? hi.x : lo.x + i * du, j == full ? hi.y : lo.y + j * dv);
+  };
+  // A uniform grid of the cut triangles' UV boxes, to find those under a cell.
+  const int G = std::clamp(int(std::sqrt(double(cut.size()))), 1, 1024);
+  std::vector<std::vector<uint32_t>> bins(size_t(G) * G);
+  auto binRange = [&](Vec2d b0, Vec2d b1, int& x0, int& x1, int& y0, int& y1) {
+    x0 = std::clamp(int((b0.x - lo.x) / W * G), 0, G - 1);
+    x1 = std::clamp(int((b1.x - lo.x) / W * G), 0, G - 1);
+    y0 = std::clamp(int((b0.y - lo.y) / H * G), 0, G - 1);
+    y1 = std::clamp(int((b1.y - lo.y) / H * G), 0, G - 1);
+  };
+  for (size_t i = 0; i < cut.size(); ++i) {
+    int x0, x1, y0, y1;
+    binRange(cut[i].lo, cut[i].hi, x0, x1, y0, y1);
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) bins[size_t(y) * G + x].push_back(uint32_t(i));
+  }
+  auto trianglesUnder = [&](Vec2d b0, Vec2d b1, std::vector<uint32_t>& out) {
+    out.clear();
+    int x0, x1, y0, y1;
+    binRange(b0, b1, x0, x1, y0, y1);
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x)
+        for (uint32_t i : bins[size_t(y) * G + x])
+          if (cut[i].lo.x <= b1.x && b0.x <= cut[i].hi.x && cut[i].lo.y <= b1.y && b0.y <= cut[i].hi.y) out.push_back(i);
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+  };
+
+  // Cells at the finest level that hold a kink of a cross-section (a profile vertex line) may be
+  // split kKinkLevels levels further (0 = off: the exact facet normals below already remove the
+  // kink's glint; splitting only sharpens where the kink lies).
+  constexpr int kKinkLevels = 0;
   std::vector<Leaf> leaves;
-  const uint32_t full = 1u << depth;
   std::vector<Leaf> stack{{0, 0, full}};
+  std::vector<uint32_t> under;
   while (!stack.empty()) {
     Leaf c = stack.back();
     stack.pop_back();
-    if (c.size > 1 && reaches(lo.x + c.i0 * du, lo.y + c.j0 * dv, lo.x + (c.i0 + c.size) * du,
-                              lo.y + (c.j0 + c.size) * dv, c.size <= (1u << kKinkLevels))) {
+    const Vec2d b0 = corner(c.i0, c.j0), b1 = corner(c.i0 + c.size, c.j0 + c.size);
+    trianglesUnder(b0, b1, under);
+    if (under.empty()) continue;  // only kept triangles (or none) there
+    if (c.size > 1 && reaches(b0, b1, c.size <= (1u << kKinkLevels))) {
       uint32_t h = c.size / 2;
       stack.push_back({c.i0, c.j0, h});
       stack.push_back({c.i0 + h, c.j0, h});
@@ -151,9 +241,10 @@ TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<con
     return std::tie(x.j0, x.i0, x.size) < std::tie(y.j0, y.i0, y.size);
   });
 
-  // Every leaf becomes a triangle fan; a finest cell that a kink of the height field crosses is
-  // first cut along it, so that every triangle lies on one facet and the mesh is exactly the
-  // faceted surface (up to the chord of a curved kink inside a cell). Kinks are the zero sets of:
+  // Every leaf is clipped to each cut triangle under it, and the piece, if it is a finest cell
+  // that a kink of the height field crosses, is cut along it, so that every output triangle lies
+  // on one facet and the mesh is exactly the faceted surface (up to the chord of a curved kink
+  // inside a cell). Kinks are the zero sets of:
   //  - offset - k(s) b_i for each cross-section vertex b_i of a scratch reaching the cell (k the
   //    scale at the closest point's arc position s), and
   //  - h_a - h_b for each pair of scratches reaching it (where overlapping grooves or pile-ups
@@ -162,13 +253,6 @@ TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<con
   // under a grazing light the apex is cut low and the shadow behind it comes out short (measured:
   // 4% too much light in a lit wall's pixels at cell = width / 32 under a 12 degree bar light,
   // converging only as the cell shrinks).
-  auto cornerUv = [&](uint32_t i, uint32_t j) {
-    double u = i == full ? hi.x : lo.x + i * du;
-    double v = j == full ? hi.y : lo.y + j * dv;
-    return Vec2f(float(u), float(v));
-  };
-  // Counter-clockwise seen from the winding normal: flip when the chart is mirrored.
-  const bool flip = dot(cross(a.u, a.v), a.n) < 0;
   struct Soup {
     std::vector<Vec3f> positions, normals;
     std::vector<Vec2f> uvs;
@@ -178,103 +262,152 @@ TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<con
   std::vector<Soup> soups(nblocks);
   parallelFor(nblocks, [&](size_t blk) {
     Soup& out = soups[blk];
-    struct Vtx {
-      Vec2f uv;
-      std::vector<double> f;  // kink function values
-    };
     std::vector<const Scratch*> near;
+    std::vector<uint32_t> tris;
     std::vector<std::vector<Vtx>> polys, next;
+    const float far = 4.0f * float(std::max(du, dv));
+    auto eval = [&](Vec2d q, size_t reserve) {
+      std::vector<double> f;
+      f.reserve(reserve);
+      const Vec2f p(float(q.x), float(q.y));
+      for (size_t k = 0; k < near.size(); ++k) {
+        const Scratch* sc = near[k];
+        float reach = float(sc->referenceProfile().halfExtent()) * sc->maxScale() + far;
+        PathPoint pp = sc->path().closest(p, reach);
+        float kk = pp.found ? sc->scaleAt(pp.s) : 0.0f;
+        for (const Vec2d& b : sc->referenceProfile().pts)
+          f.push_back(pp.found && pp.beyond <= 0 && kk > 0 ? double(pp.offset) - double(kk) * b.x : std::nan(""));
+        for (size_t l = k + 1; l < near.size(); ++l) f.push_back(double(sc->height(p)) - double(near[l]->height(p)));
+      }
+      return f;
+    };
     for (size_t li = blk * block; li < std::min(leaves.size(), (blk + 1) * block); ++li) {
       const Leaf& c = leaves[li];
-      Vec2f q00 = cornerUv(c.i0, c.j0), q10 = cornerUv(c.i0 + c.size, c.j0), q11 = cornerUv(c.i0 + c.size, c.j0 + c.size),
-            q01 = cornerUv(c.i0, c.j0 + c.size);
+      const Vec2d q00 = corner(c.i0, c.j0), q10 = corner(c.i0 + c.size, c.j0),
+                  q11 = corner(c.i0 + c.size, c.j0 + c.size), q01 = corner(c.i0, c.j0 + c.size);
       near.clear();
       if (c.size == 1) {
-        Box2 cb{q00, q11};
-        Vec2f centre = (q00 + q11) * 0.5f;
-        float half_diag = 0.5f * std::hypot(q11.x - q00.x, q11.y - q00.y);
+        Box2 cb{Vec2f(float(q00.x), float(q00.y)), Vec2f(float(q11.x), float(q11.y))};
+        Vec2f centre(float(0.5 * (q00.x + q11.x)), float(0.5 * (q00.y + q11.y)));
+        float half_diag = float(0.5 * std::hypot(q11.x - q00.x, q11.y - q00.y));
         for (const Scratch* sc : scratches) {
           if (!sc->support().overlaps(cb)) continue;
           float reach = float(sc->referenceProfile().halfExtent()) * sc->maxScale() + half_diag;
           if (sc->path().closest(centre, reach).found) near.push_back(sc);
         }
       }
-      const float far = 4.0f * std::max(float(du), float(dv));
-      auto eval = [&](Vec2f p) {
-        std::vector<double> f;
-        for (size_t k = 0; k < near.size(); ++k) {
-          const Scratch* sc = near[k];
-          float reach = float(sc->referenceProfile().halfExtent()) * sc->maxScale() + far;
-          PathPoint pp = sc->path().closest(p, reach);
-          float kk = pp.found ? sc->scaleAt(pp.s) : 0.0f;
-          for (const Vec2d& b : sc->referenceProfile().pts)
-            f.push_back(pp.found && pp.beyond <= 0 && kk > 0 ? double(pp.offset) - double(kk) * b.x
-                                                              : std::nan(""));
-          for (size_t l = k + 1; l < near.size(); ++l) f.push_back(double(sc->height(p)) - double(near[l]->height(p)));
+      trianglesUnder(q00, q11, tris);
+      for (uint32_t ti : tris) {
+        const PartTri& pt = cut[ti];
+        // Clip the cell to the triangle: keep where each edge function (the signed distance from
+        // the edge's line, computed from its ends in a fixed order, positive inside) is >= 0.
+        // Values within a rounding distance of the line count as on it.
+        polys.assign(1, {});
+        for (Vec2d q : {q00, q10, q11, q01}) polys[0].push_back({q, 0u, {}});
+        for (int e = 0; e < 3 && !polys.empty(); ++e) {
+          Vec2d A = pt.t[e], B = pt.t[(e + 1) % 3];
+          if (uvLess(B, A)) std::swap(A, B);
+          const Vec2d AB = B - A;
+          const double len = std::hypot(AB.x, AB.y);
+          const double side = cross2(AB, pt.t[(e + 2) % 3] - A) > 0 ? 1.0 : -1.0;
+          const double tol = 1e-12 * (W + H) * len;
+          auto edgeF = [&](Vec2d q) {
+            double g = side * cross2(AB, q - A);
+            return std::fabs(g) <= tol ? 0.0 : g;
+          };
+          next.clear();
+          for (auto& poly : polys) {
+            for (Vtx& v : poly) {
+              v.f.assign(1, edgeF(v.uv));
+              if (v.f[0] == 0) v.on |= 1u << e;
+            }
+            cutPolygon(poly, 0, 1u << e, false,
+                       [&](Vec2d q, size_t) { return std::vector<double>{edgeF(q)}; }, next);
+          }
+          std::swap(polys, next);
         }
-        return f;
-      };
-      polys.assign(1, {{q00, eval(q00)}, {q10, eval(q10)}, {q11, eval(q11)}, {q01, eval(q01)}});
-      const size_t nf = polys[0][0].f.size();
-      for (size_t fi = 0; fi < nf; ++fi) {
-        next.clear();
-        for (auto& poly : polys) {
-          bool neg = false, pos = false;
-          for (const Vtx& v : poly) {
-            double x = v.f[fi];
-            neg |= x < 0;
-            pos |= x > 0;
-          }
-          if (!(neg && pos)) {
-            next.push_back(std::move(poly));
-            continue;
-          }
-          std::vector<Vtx> lo_side, hi_side;
-          for (size_t k = 0; k < poly.size(); ++k) {
-            const Vtx& p0 = poly[k];
-            const Vtx& p1 = poly[(k + 1) % poly.size()];
-            double x0 = p0.f[fi], x1 = p1.f[fi];
-            if (!(x0 > 0)) lo_side.push_back(p0);
-            if (!(x0 < 0)) hi_side.push_back(p0);
-            if ((x0 < 0 && x1 > 0) || (x0 > 0 && x1 < 0)) {
-              // The crossing, computed from the edge's endpoints in a fixed order so that the
-              // neighbouring cell finds the same point on a shared edge.
-              bool swap = std::tie(p1.uv.x, p1.uv.y) < std::tie(p0.uv.x, p0.uv.y);
-              const Vtx& e0 = swap ? p1 : p0;
-              const Vtx& e1 = swap ? p0 : p1;
-              double t = e0.f[fi] / (e0.f[fi] - e1.f[fi]);
-              Vec2f uv(float(e0.uv.x + (double(e1.uv.x) - e0.uv.x) * t), float(e0.uv.y + (double(e1.uv.y) - e0.uv.y) * t));
-              Vtx cross_v{uv, eval(uv)};
-              cross_v.f[fi] = 0.0;
-              lo_side.push_back(cross_v);
-              hi_side.push_back(std::move(cross_v));
+        if (polys.empty()) continue;
+        // Cut along the kinks.
+        for (auto& poly : polys)
+          for (Vtx& v : poly) v.f = eval(v.uv, 0);
+        const size_t nf = polys[0][0].f.size();
+        for (size_t fi = 0; fi < nf; ++fi) {
+          next.clear();
+          for (auto& poly : polys) cutPolygon(poly, fi, 0u, true, eval, next);
+          std::swap(polys, next);
+        }
+        // Map the pieces through the triangle. A point on an edge is placed along that edge alone
+        // (from its ends in a fixed order), and a corner is the corner, so that the neighbouring
+        // triangle places it alike.
+        auto place = [&](const Vtx& v, Vec3d& p, Vec3d& n) {
+          for (int e = 0; e < 3; ++e) {
+            const unsigned both = (1u << e) | (1u << ((e + 2) % 3));
+            if ((v.on & both) == both) {  // on the edges into and out of corner e
+              p = pt.p[e];
+              n = pt.n[e];
+              return;
             }
           }
-          if (lo_side.size() >= 3) next.push_back(std::move(lo_side));
-          if (hi_side.size() >= 3) next.push_back(std::move(hi_side));
-        }
-        std::swap(polys, next);
-      }
-      for (const auto& poly : polys) {
-        std::vector<Vec3d> P(poly.size());
-        for (size_t k = 0; k < poly.size(); ++k) {
-          Vec2f t = poly[k].uv;
-          P[k] = a.o + a.u * double(t.x) + a.v * double(t.y) + a.n * double(scratchHeight(scratches, t));
-        }
-        for (size_t k = 1; k + 1 < poly.size(); ++k) {
-          size_t id[3] = {0, k, k + 1};
-          if (flip) std::swap(id[1], id[2]);
-          Vec3d n = cross(P[id[1]] - P[id[0]], P[id[2]] - P[id[0]]);
-          double e2 = std::max(dot(P[id[1]] - P[id[0]], P[id[1]] - P[id[0]]), dot(P[id[2]] - P[id[0]], P[id[2]] - P[id[0]]));
-          double ln = length(n);
-          if (!(ln > 1e-10 * e2)) continue;  // degenerate sliver
-          n = n / ln;
-          if (dot(n, a.n) < 0) n = -n;
-          Vec3f nf(n);
-          for (size_t v : id) {
-            out.positions.push_back(Vec3f(P[v]));
-            out.uvs.push_back(poly[v].uv);
-            out.normals.push_back(nf);
+          for (int e = 0; e < 3; ++e)
+            if (v.on & (1u << e)) {
+              int a = e, b = (e + 1) % 3;
+              if (uvLess(pt.t[b], pt.t[a])) std::swap(a, b);
+              const Vec2d AB = pt.t[b] - pt.t[a];
+              const double s = std::clamp(((v.uv.x - pt.t[a].x) * AB.x + (v.uv.y - pt.t[a].y) * AB.y) /
+                                              (AB.x * AB.x + AB.y * AB.y), 0.0, 1.0);
+              p = pt.p[a] + (pt.p[b] - pt.p[a]) * s;
+              n = normalize(pt.n[a] + (pt.n[b] - pt.n[a]) * s);
+              return;
+            }
+          const double b1 = cross2(v.uv - pt.t[0], pt.t[2] - pt.t[0]) / pt.area2;
+          const double b2 = cross2(pt.t[1] - pt.t[0], v.uv - pt.t[0]) / pt.area2;
+          const double b0 = 1 - b1 - b2;
+          p = pt.p[0] * b0 + pt.p[1] * b1 + pt.p[2] * b2;
+          n = normalize(pt.n[0] * b0 + pt.n[1] * b1 + pt.n[2] * b2);
+        };
+        // Counter-clockwise seen from the outside: the pieces are counter-clockwise in UV, so
+        // flip where the chart is mirrored.
+        const bool flip = pt.area2 < 0;
+        for (auto& poly : polys) {
+          // Merge vertices that lie within a few float steps of their predecessor: the heights
+          // are computed from float UVs, so a piece that small has no reliable facet.
+          size_t w = 0;
+          for (size_t k = 0; k < poly.size(); ++k)
+            if (w == 0 || std::fabs(poly[k].uv.x - poly[w - 1].uv.x) + std::fabs(poly[k].uv.y - poly[w - 1].uv.y) > merge)
+              poly[w++] = std::move(poly[k]);
+          while (w > 1 && std::fabs(poly[0].uv.x - poly[w - 1].uv.x) + std::fabs(poly[0].uv.y - poly[w - 1].uv.y) <= merge) --w;
+          poly.resize(w);
+          const size_t m = poly.size();
+          if (m < 3) continue;
+          std::vector<Vec3d> P(m), N(m), F(m);  // displaced, normal, displaced in the flat triangle
+          std::vector<Vec2f> T(m);
+          for (size_t k = 0; k < m; ++k) {
+            T[k] = Vec2f(float(poly[k].uv.x), float(poly[k].uv.y));
+            Vec3d base;
+            place(poly[k], base, N[k]);
+            const double h = scratchHeight(scratches, T[k]);
+            P[k] = base + N[k] * h;
+            F[k] = base + pt.ng * h;
+          }
+          // The facet's normal in the triangle's plane (the piece's area vector, so that a sliver of
+          // it does not take its direction from the heights' rounding), then turned with the
+          // interpolated normal at each vertex.
+          Vec3d nf(0.0);
+          for (size_t k = 1; k + 1 < m; ++k) nf += cross(F[k] - F[0], F[k + 1] - F[0]);
+          if (!(length(nf) > 0)) continue;
+          nf = nf / length(nf);
+          if (dot(nf, pt.ng) < 0) nf = -nf;
+          for (size_t k = 1; k + 1 < m; ++k) {
+            size_t id[3] = {0, k, k + 1};
+            if (flip) std::swap(id[1], id[2]);
+            const Vec3d e1 = P[id[1]] - P[id[0]], e2 = P[id[2]] - P[id[0]];
+            const double ee = std::max(dot(e1, e1), dot(e2, e2));
+            if (!(length(cross(e1, e2)) > 1e-10 * ee)) continue;  // degenerate sliver
+            for (size_t v : id) {
+              out.positions.push_back(Vec3f(P[v]));
+              out.uvs.push_back(T[v]);
+              out.normals.push_back(Vec3f(normalize(turn(pt.ng, N[v], nf))));
+            }
           }
         }
       }
@@ -282,13 +415,22 @@ TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<con
   });
   TriangleMesh out;
   out.source = part.source + "+scratches";
-  size_t nv = 0;
+  size_t nv = 3 * kept.size();
   for (const Soup& sp : soups) nv += sp.positions.size();
   if (nv / 3 > opt.max_triangles)
     throw std::runtime_error("the scratch geometry would exceed " + std::to_string(opt.max_triangles) + " triangles");
   out.positions.reserve(nv);
   out.uvs.reserve(nv);
   out.normals.reserve(nv);
+  for (uint32_t f : kept) {
+    const uint32_t* id = &part.indices[3 * f];
+    const Vec3f g = normalize(cross(part.positions[id[1]] - part.positions[id[0]], part.positions[id[2]] - part.positions[id[0]]));
+    for (int k = 0; k < 3; ++k) {
+      out.positions.push_back(part.positions[id[k]]);
+      out.uvs.push_back(part.uvs[id[k]]);
+      out.normals.push_back(has_normals ? part.normals[id[k]] : g);
+    }
+  }
   for (Soup& sp : soups) {
     out.positions.insert(out.positions.end(), sp.positions.begin(), sp.positions.end());
     out.uvs.insert(out.uvs.end(), sp.uvs.begin(), sp.uvs.end());
@@ -300,6 +442,7 @@ TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<con
   out.computeMmPerUv();
   if (stats) {
     stats->triangles = out.triangleCount();
+    stats->part_triangles_cut = cut.size();
     stats->cell_mm = std::max(du, dv);
   }
   return out;

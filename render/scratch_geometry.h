@@ -2,12 +2,16 @@
 // with every scratch's cross-section cut into it, to be rendered by the ordinary path tracer with
 // many samples. Ground truth for the groove renderer (render/groove.h).
 //
-// Supported parts are flat with an affine UV chart (the built-in plate; any planar mesh whose UVs
-// are an affine image of its positions and whose chart fills its UV rectangle). The rectangle is
-// re-meshed by a quadtree: cells are split down to `cell_mm` wherever a scratch's cross-section
-// can reach into them, and stay coarse elsewhere. A cell that is not split contains no point of any
-// cross-section, so its edges are flat and the finer neighbours' vertices on them lie in the
-// plane: the T-junctions are coplanar and leave no cracks.
+// Any part with a UV chart: flat or curved, built in or loaded, its chart filling a rectangle or
+// not. The chart's bounding rectangle is divided by a quadtree whose cells are split down to
+// `cell_mm` wherever a scratch's cross-section can reach into them and stay coarse elsewhere.
+// Part triangles that no cross-section reaches are kept as they are; the others are cut into the
+// quadtree's cells (each cell clipped to the triangle in UV) and every piece is mapped back through
+// the triangle: its position and normal interpolated, then moved along that normal by the
+// scratches' height. A cell that is not split contains no point of any cross-section, so its
+// pieces are undisplaced and the finer neighbours' vertices on their edges lie on them: the
+// T-junctions leave no cracks. Points on a part triangle's edge are mapped along that edge alone,
+// so the two triangles sharing it place them alike.
 //
 // Heights of overlapping scratches combine as the removed material's union: the lowest groove
 // where any groove is below the surface, else the highest pile-up.
@@ -28,15 +32,19 @@ struct ScratchGeometryOptions {
 };
 struct ScratchGeometryStats {
   size_t triangles = 0;
+  size_t part_triangles_cut = 0;  // part triangles that a cross-section reaches (re-meshed)
   double cell_mm = 0;
 };
 
 // Composite height (mm, along the outward normal) of the scratches at UV point p.
 float scratchHeight(const std::vector<const Scratch*>& scratches, Vec2f p);
 
-// Throws std::runtime_error when the part is not flat with an affine, rectangle-filling chart, or
-// the mesh would exceed max_triangles.
-TriangleMesh scratchedPlanarMesh(const TriangleMesh& part, const std::vector<const Scratch*>& scratches,
-                                 const ScratchGeometryOptions& opt = {}, ScratchGeometryStats* stats = nullptr);
+// The part with the scratches cut in. Facet normals are exact: a piece's normal is its facet's in
+// the part triangle's plane, turned with the part's interpolated normal at each vertex (so that,
+// as in the groove renderer, a cross-section's slopes are measured from the shading normal).
+// Throws std::runtime_error when the part has no usable UV chart, or the mesh would exceed
+// max_triangles.
+TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scratch*>& scratches,
+                           const ScratchGeometryOptions& opt = {}, ScratchGeometryStats* stats = nullptr);
 
 }  // namespace dg

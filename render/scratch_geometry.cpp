@@ -1,6 +1,7 @@
 #include "render/scratch_geometry.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <tuple>
@@ -124,6 +125,9 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
   const uint32_t full = 1u << depth;
   const double merge = 4.0 * std::max({std::fabs(lo.x), std::fabs(lo.y), std::fabs(hi.x), std::fabs(hi.y)}) *
                        double(std::numeric_limits<float>::epsilon());
+  // Heights come from float UVs: differences below jump_tol are rounding, not a jump; the height
+  // beyond an edge is sampled jump_step and twice that outside it.
+  const double jump_tol = 16.0 * merge, jump_step = 4.0 * merge;
 
   // Does some scratch's cross-section reach into the UV box? (With kinks_only, into a kink line
   // of it: a profile vertex's offset, or an end.)
@@ -263,6 +267,15 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
   parallelFor(nblocks, [&](size_t blk) {
     Soup& out = soups[blk];
     std::vector<const Scratch*> near;
+    // The ends of the scratches in `near`: where the scale is still > 0 at an end, the height drops
+    // to 0 across the line through it perpendicular to the path (PathPoint::beyond > 0 past it).
+    struct End {
+      Vec2d p, t;          // the end point and the path's tangent there
+      double sign = 1;     // +: the values are >= 0 on the scratch's side
+      double reach = 0;    // the line matters within this distance of the point
+      bool abrupt = false;
+    };
+    std::vector<std::array<End, 2>> ends;
     std::vector<uint32_t> tris;
     std::vector<std::vector<Vtx>> polys, next;
     const float far = 4.0f * float(std::max(du, dv));
@@ -270,6 +283,9 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       std::vector<double> f;
       f.reserve(reserve);
       const Vec2f p(float(q.x), float(q.y));
+      // First every scratch's own kinks, then where two trade places: h_a - h_b is affine only
+      // within pieces that are already on one facet of each (cut the other way round, the chord
+      // of its bent zero set would leave pieces straddling it).
       for (size_t k = 0; k < near.size(); ++k) {
         const Scratch* sc = near[k];
         float reach = float(sc->referenceProfile().halfExtent()) * sc->maxScale() + far;
@@ -277,10 +293,25 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
         float kk = pp.found ? sc->scaleAt(pp.s) : 0.0f;
         for (const Vec2d& b : sc->referenceProfile().pts)
           f.push_back(pp.found && pp.beyond <= 0 && kk > 0 ? double(pp.offset) - double(kk) * b.x : std::nan(""));
-        for (size_t l = k + 1; l < near.size(); ++l) f.push_back(double(sc->height(p)) - double(near[l]->height(p)));
+        // An abrupt end's line (across the end tangent, where the height drops to 0), near that end.
+        for (int e = 0; e < 2; ++e) {
+          const End& en = ends[k][e];
+          const Vec2d d = q - en.p;
+          f.push_back(en.abrupt && std::hypot(d.x, d.y) <= en.reach ? en.sign * (d.x * en.t.x + d.y * en.t.y) : std::nan(""));
+        }
       }
+      for (size_t k = 0; k < near.size(); ++k)
+        for (size_t l = k + 1; l < near.size(); ++l) f.push_back(double(near[k]->height(p)) - double(near[l]->height(p)));
       return f;
     };
+    auto heightAt = [&](Vec2d q) { return double(scratchHeight(scratches, Vec2f(float(q.x), float(q.y)))); };
+    // A piece's own height at its vertex q, from a point 1/64 of the way to its centre c (hc the
+    // height there): exact where the height is affine over the piece.
+    auto insideHeight = [&](Vec2d q, Vec2d c, double hc) {
+      constexpr double e = 1.0 / 64;
+      return (heightAt(q + (c - q) * e) - e * hc) / (1 - e);
+    };
+    bool jumpy = false;
     for (size_t li = blk * block; li < std::min(leaves.size(), (blk + 1) * block); ++li) {
       const Leaf& c = leaves[li];
       const Vec2d q00 = corner(c.i0, c.j0), q10 = corner(c.i0 + c.size, c.j0),
@@ -294,6 +325,25 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
           if (!sc->support().overlaps(cb)) continue;
           float reach = float(sc->referenceProfile().halfExtent()) * sc->maxScale() + half_diag;
           if (sc->path().closest(centre, reach).found) near.push_back(sc);
+        }
+      }
+      // Cells where the composite height can jump (two scratches meet, or an abrupt end is near)
+      // get exact facets up to the jump lines and walls along them (below).
+      ends.assign(near.size(), {});
+      jumpy = near.size() >= 2;
+      for (size_t k = 0; k < near.size(); ++k) {
+        const ScratchPath& path = near[k]->path();
+        const float half = float(near[k]->referenceProfile().halfExtent()) * near[k]->maxScale();
+        for (int e = 0; e < 2; ++e) {
+          End& en = ends[k][e];
+          const double s = e == 0 ? 0.0 : path.length();
+          en.p = path.pointAt(s);
+          en.t = path.tangentAt(s);
+          en.sign = e == 0 ? 1.0 : -1.0;
+          en.reach = 2.0 * half + 4.0 * std::max(du, dv);
+          en.abrupt = near[k]->scaleAt(float(s)) > 0;
+          const Vec2d d = Vec2d(0.5 * (q00.x + q11.x), 0.5 * (q00.y + q11.y)) - en.p;
+          jumpy |= en.abrupt && std::hypot(d.x, d.y) <= en.reach;
         }
       }
       trianglesUnder(q00, q11, tris);
@@ -379,15 +429,67 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
           poly.resize(w);
           const size_t m = poly.size();
           if (m < 3) continue;
-          std::vector<Vec3d> P(m), N(m), F(m);  // displaced, normal, displaced in the flat triangle
+          std::vector<Vec3d> P(m), N(m), F(m), Bs(m);  // displaced, normal, in the flat triangle, base
           std::vector<Vec2f> T(m);
+          std::vector<double> hv(m);
+          Vec2d c(0, 0);
+          for (const Vtx& v : poly) c += v.uv;
+          c = c / double(m);
+          const double hc = jumpy ? heightAt(c) : 0.0;
           for (size_t k = 0; k < m; ++k) {
             T[k] = Vec2f(float(poly[k].uv.x), float(poly[k].uv.y));
-            Vec3d base;
-            place(poly[k], base, N[k]);
-            const double h = scratchHeight(scratches, T[k]);
-            P[k] = base + N[k] * h;
-            F[k] = base + pt.ng * h;
+            place(poly[k], Bs[k], N[k]);
+            hv[k] = scratchHeight(scratches, T[k]);
+            // On a jump line a point's height is one side's; the piece on the other side takes its
+            // own facet's value there, extrapolated from a point just inside (the facet is affine
+            // across the piece).
+            if (jumpy) {
+              const double hu = insideHeight(poly[k].uv, c, hc);
+              if (std::fabs(hu - hv[k]) > jump_tol) hv[k] = hu;
+            }
+            P[k] = Bs[k] + N[k] * hv[k];
+            F[k] = Bs[k] + pt.ng * hv[k];
+          }
+          // Walls: along each edge where the height beyond the edge is higher than this piece's
+          // (a groove cutting through another's pile-up, an abrupt end), this, the lower piece,
+          // raises a wall up to it. The height beyond is extrapolated to the edge from two points
+          // outside it.
+          if (jumpy) {
+            Vec3d bc;
+            Vec3d nc;
+            place(Vtx{c, 0u, {}}, bc, nc);
+            for (size_t k = 0; k < m; ++k) {
+              const size_t k1 = (k + 1) % m;
+              const Vec2d a = poly[k].uv, b = poly[k1].uv, mid = (a + b) * 0.5;
+              Vec2d n(b.y - a.y, a.x - b.x);
+              const double ln = std::hypot(n.x, n.y);
+              if (!(ln > 0)) continue;
+              n = n / ln;
+              if ((mid.x - c.x) * n.x + (mid.y - c.y) * n.y < 0) n = n * -1.0;
+              auto beyond = [&](Vec2d q) { return 2.0 * heightAt(q + n * jump_step) - heightAt(q + n * (2.0 * jump_step)); };
+              if (!(beyond(mid) - insideHeight(mid, c, hc) > jump_tol)) continue;
+              const double ta = std::max(hv[k], beyond(a)), tb = std::max(hv[k1], beyond(b));
+              const Vec3d A0 = P[k], B0 = P[k1], A1 = Bs[k] + N[k] * ta, B1 = Bs[k1] + N[k1] * tb;
+              const Vec3d inward = bc - (Bs[k] + Bs[k1]) * 0.5;  // the wall faces the lower piece
+              auto wall = [&](Vec3d p0, Vec3d p1, Vec3d p2, Vec2f u0, Vec2f u1, Vec2f u2) {
+                Vec3d g = cross(p1 - p0, p2 - p0);
+                const double ee = std::max(dot(p1 - p0, p1 - p0), dot(p2 - p0, p2 - p0));
+                if (!(length(g) > 1e-10 * ee)) return;
+                if (dot(g, inward) < 0) {
+                  std::swap(p1, p2);
+                  std::swap(u1, u2);
+                  g = -g;
+                }
+                const Vec3f nf(g / length(g));
+                for (auto [pp, uu] : {std::pair{p0, u0}, std::pair{p1, u1}, std::pair{p2, u2}}) {
+                  out.positions.push_back(Vec3f(pp));
+                  out.uvs.push_back(uu);
+                  out.normals.push_back(nf);
+                }
+              };
+              wall(A0, B0, B1, T[k], T[k1], T[k1]);
+              wall(A0, B1, A1, T[k], T[k1], T[k]);
+            }
           }
           // The facet's normal in the triangle's plane (the piece's area vector, so that a sliver of
           // it does not take its direction from the heights' rounding), then turned with the

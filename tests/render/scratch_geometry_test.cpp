@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <random>
 #include <unordered_map>
 
 #include "defects/scratch.h"
@@ -37,11 +38,15 @@ TEST(ScratchGeometry, VerticesFollowTheCrossSectionAndNormalsAreTheFacets) {
   double zmin = 1e9, worst = 0;
   const double slope = 0.03 / 0.05, nz = 1 / std::sqrt(1 + slope * slope);
   for (size_t i = 0; i < m.positions.size(); ++i) {
-    float h = s.height(m.uvs[i]);
+    // On the lines of the abrupt ends (u = 5 and 15) a vertex has one side's height: the groove's
+    // (the same a step along u inside it) or the plate's; the end walls join them.
+    const Vec2f uv = m.uvs[i], du(1e-4f, 0.0f);
+    double err = 1e30;
+    for (Vec2f q : {uv, uv + du, uv - du * 1.0f})
+      err = std::min(err, std::fabs(double(dot(m.positions[i] - plate.positions[0], n0)) - double(s.height(q))));
     // The plate lies in a plane through the origin's level: compare against the undisplaced point.
-    Vec3f base = plate.positions[0] + Vec3f(0.0f);  // any plate point: the plane's offset
-    double above = dot(m.positions[i] - base, n0);
-    worst = std::max(worst, std::fabs(above - h));
+    double above = dot(m.positions[i] - plate.positions[0], n0);
+    worst = std::max(worst, err);
     zmin = std::min(zmin, above);
   }
   EXPECT_LT(worst, 1e-5);
@@ -176,7 +181,11 @@ TEST(ScratchGeometry, CurvedPartsAreCutAlongTheSurfaceNormal) {
     Vec2f c = (m.uvs[3 * t] + m.uvs[3 * t + 1] + m.uvs[3 * t + 2]) / 3.0f;
     Vec2f e1 = m.uvs[3 * t + 1] - m.uvs[3 * t], e2 = m.uvs[3 * t + 2] - m.uvs[3 * t];
     uv_area += 0.5 * std::fabs(double(e1.x) * e2.y - double(e1.y) * e2.x);
-    for (int k = 0; k < 3; ++k) {
+    const double len = std::hypot(b.x - a.x, b.y - a.y);
+    double along = (double(c.x) - a.x) * dir.x + (double(c.y) - a.y) * dir.y;
+    // Points shared by pieces are placed alike (the abrupt ends excepted: there the walls' top and
+    // bottom share their UVs).
+    for (int k = 0; k < 3 && along > 0.5 && along < len - 0.5; ++k) {
       const size_t v = 3 * t + k;
       uint64_t key;
       std::memcpy(&key, &m.uvs[v], sizeof key);
@@ -187,8 +196,6 @@ TEST(ScratchGeometry, CurvedPartsAreCutAlongTheSurfaceNormal) {
       }
     }
     // Away from the blunt ends.
-    double along = (double(c.x) - a.x) * dir.x + (double(c.y) - a.y) * dir.y;
-    const double len = std::hypot(b.x - a.x, b.y - a.y);
     if (along < 2 || along > len - 2) continue;
     const double offset = -(double(c.x) - a.x) * dir.y + (double(c.y) - a.y) * dir.x;
     if (std::fabs(offset) < 0.05)
@@ -236,6 +243,106 @@ TEST(ScratchGeometry, CurvedPartsAreCutAlongTheSurfaceNormal) {
   bool found = false;
   for (size_t v = 0; v < m.positions.size() && !found; ++v) found = m.positions[v] == far_p;
   EXPECT_TRUE(found);
+}
+
+// Where the composite height jumps (a groove cutting through another's pile-up; an abrupt end),
+// the mesh has vertical walls, so it is the height field itself: rays cast at it hit where rays
+// marched through the height field stop, also rays that meet a wall. Without the walls (each side's
+// facets ramped into the other's over one cell), rays near the jumps stop early or late.
+TEST(ScratchGeometry, JumpsBecomeWallsAndRaysHitTheHeightField) {
+  PlateParams pp;
+  pp.width_mm = 4;
+  pp.height_mm = 4;
+  TriangleMesh plate = makePlate(pp, 2);
+  // Grooves with pile-ups: A along u with an abrupt end at u = 1, B along v through A.
+  Profile pa = Profile::fromPolyline({{-0.09, 0.0}, {-0.06, 0.012}, {-0.04, 0.0}, {0.0, -0.03},
+                                      {0.04, 0.0}, {0.06, 0.012}, {0.09, 0.0}});
+  Profile pb = Profile::fromPolyline({{-0.07, 0.0}, {-0.05, 0.009}, {-0.03, 0.0}, {0.0, -0.02},
+                                      {0.03, 0.0}, {0.05, 0.009}, {0.07, 0.0}});
+  Scratch a = Scratch::fromProfile(ScratchPath::polyline({{1.0, 2.0}, {3.6, 2.0}}), pa);
+  Scratch b = Scratch::fromProfile(ScratchPath::polyline({{2.0, 0.4}, {2.0, 3.6}}), pb);
+  std::vector<const Scratch*> list{&a, &b};
+  ScratchGeometryOptions o;
+  o.cell_mm = 0.06 / 8;
+  TriangleMesh m = scratchedMesh(plate, list, o);
+  // The plate's chart: world = uv + shift, z up.
+  const Vec3d shift = Vec3d(plate.positions[0]) - Vec3d(plate.uvs[0].x, plate.uvs[0].y, 0.0);
+  // Triangles near the two spots, for brute-force intersection.
+  std::vector<size_t> tris;
+  for (size_t t = 0; t < m.triangleCount(); ++t) {
+    Vec2f c = (m.uvs[3 * t] + m.uvs[3 * t + 1] + m.uvs[3 * t + 2]) / 3.0f;
+    if ((std::fabs(c.x - 2) < 0.3 && std::fabs(c.y - 2) < 0.3) || (std::fabs(c.x - 1) < 0.3 && std::fabs(c.y - 2) < 0.3))
+      tris.push_back(t);
+  }
+  auto meshHit = [&](Vec3d o, Vec3d d) {
+    double best = 1e30;
+    for (size_t t : tris) {
+      Vec3d p0(m.positions[3 * t]), e1 = Vec3d(m.positions[3 * t + 1]) - p0, e2 = Vec3d(m.positions[3 * t + 2]) - p0;
+      Vec3d q = cross(d, e2);
+      double det = dot(e1, q);
+      if (std::fabs(det) < 1e-18) continue;
+      Vec3d s = o - p0;
+      double u = dot(s, q) / det;
+      if (u < 0 || u > 1) continue;
+      Vec3d r = cross(s, e1);
+      double v = dot(d, r) / det;
+      if (v < 0 || u + v > 1) continue;
+      double tt = dot(e2, r) / det;
+      if (tt > 0 && tt < best) best = tt;
+    }
+    return best;
+  };
+  // Marched through the height field: the first t where the ray is below the surface, refined by
+  // bisection.
+  auto fieldHit = [&](Vec3d o, Vec3d d) {
+    auto below = [&](double t) {
+      Vec3d p = o + d * t - shift;
+      return p.z <= double(scratchHeight(list, Vec2f(float(p.x), float(p.y))));
+    };
+    const double step = 2e-5;
+    double t0 = 0;
+    for (double t = step; t < 1.0; t += step) {
+      if (below(t)) {
+        double lo = t0, hi = t;
+        for (int i = 0; i < 40; ++i) (below(0.5 * (lo + hi)) ? hi : lo) = 0.5 * (lo + hi);
+        return hi;
+      }
+      t0 = t;
+    }
+    return 1e30;
+  };
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> U(0, 1);
+  int n = 0, off = 0, walls_hit = 0;
+  double worst = 0;
+  for (int i = 0; i < 300; ++i) {
+    // Aim at the crossing (where B cuts A's pile-ups and A cuts B's) or at A's abrupt end.
+    // At the end, from inside the groove toward the end wall (the rays travel toward -u).
+    const bool at_end = i % 3 == 0;
+    Vec3d target = at_end ? Vec3d(0.98 + 0.1 * U(rng), 1.93 + 0.14 * U(rng), 0.0)
+                          : Vec3d(1.88 + 0.24 * U(rng), 1.88 + 0.24 * U(rng), 0.0);
+    const double elev = 0.35 + 0.9 * U(rng), az = at_end ? kPi * (U(rng) - 0.5) : 2 * kPi * U(rng);
+    Vec3d d(-std::cos(elev) * std::cos(az), -std::cos(elev) * std::sin(az), -std::sin(elev));
+    Vec3d o = target + shift - d * (0.05 / std::sin(elev));  // 0.05 mm above the plate
+    double tm = meshHit(o, d), tf = fieldHit(o, d);
+    ASSERT_LT(tf, 1e29);
+    ++n;
+    const double err = std::fabs(tm - tf);
+    worst = std::max(worst, err);
+    if (err > 2e-4) {
+      ++off;
+      Vec3d pm = o + d * tm - shift, pf = o + d * tf - shift;
+      ADD_FAILURE() << "ray " << i << ": mesh hit at (" << pm.x << ", " << pm.y << ", " << pm.z << "), field at (" << pf.x
+                    << ", " << pf.y << ", " << pf.z << ")";
+    }
+    // A wall was hit when the surface's slope there is steeper than any facet's (tan 80 deg).
+    Vec3d p = o + d * tf - shift, q = p - Vec3d(d.x, d.y, 0.0) * 1e-5;
+    double dh = std::fabs(double(scratchHeight(list, Vec2f(float(p.x), float(p.y)))) -
+                          double(scratchHeight(list, Vec2f(float(q.x), float(q.y)))));
+    if (dh > 1e-3) ++walls_hit;
+  }
+  EXPECT_EQ(off, 0) << "of " << n << " rays; worst |t_mesh - t_field| " << worst;
+  EXPECT_GT(walls_hit, 5);
 }
 
 TEST(ScratchNormalMap, GradientIsTheFacetSlopeAndOffWithoutBumpShading) {

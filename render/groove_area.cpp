@@ -389,29 +389,107 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
       }
     }
   }
+  // Steps of the composite: along every piece edge, the surface just outside higher than the
+  // piece. Each wall is found once, from its low side, split where the piece beyond changes (the
+  // top is then one plane's, straight), and becomes two steep pieces (kWallLean).
+  constexpr double kStep = 1e-9;  // mm outside the edge
+  constexpr double kTall = 1e-7;  // mm: lower steps are a slope over kStep, or rounding
+  const size_t n_flat = pieces_.size();
+  for (Piece& pc : pieces_) {
+    pc.lo = pc.hi = pc.poly.v[0];
+    pc.poly.extend(pc.lo, pc.hi);
+  }
+  std::vector<Piece> leaning;  // appended to pieces_ at the end
+  for (size_t pi = 0; pi < n_flat; ++pi)
+    for (int k = 0; k < pieces_[pi].poly.n; ++k) {
+      const Piece& pc = pieces_[pi];
+      const Vec2d e0 = pc.poly.v[size_t(k)], e1 = pc.poly.v[size_t((k + 1) % pc.poly.n)];
+      const Vec2d t = e1 - e0;
+      const double len = std::sqrt(t.x * t.x + t.y * t.y);
+      if (!(len > 1e-9)) continue;
+      const Vec2d n(t.y / len, -t.x / len);  // outward (the piece is counter-clockwise)
+      // Is there a step anywhere along the edge? The composite jumps only where a groove's cut
+      // (its height below the base) gives way to others' pile-ups, and across abrupt ends. On the
+      // first kind of edge the heights beyond are the largest of linear functions along it,
+      // convex, so higher than the piece somewhere only if at an end; on an abrupt end line the
+      // heights beyond can be anything, so the pieces beyond are always looked at.
+      bool step = false;
+      for (double f : {kStep / len, 0.5, 1 - kStep / len}) {
+        const Vec2d q = e0 + t * f;
+        step = step || heightAt(q + n * kStep) > pc.plane.at(q) + kTall;
+      }
+      for (size_t gi = 0; gi < grooves.size() && !step; ++gi) {
+        const Groove& g = grooves[gi];
+        const double ta = g.t0 + g.tdir.x * e0.x + g.tdir.y * e0.y, tb = g.t0 + g.tdir.x * e1.x + g.tdir.y * e1.y;
+        for (double te : {g.t_lo, g.t_hi})
+          step = step || (std::fabs(te) < 1e29 && std::fabs(ta - te) < 1e-9 && std::fabs(tb - te) < 1e-9);
+      }
+      if (!step) continue;
+      // The pieces beyond: the edge moved kStep outwards, clipped to each (tau in [0, 1] along it).
+      const Vec2d s0 = e0 + n * kStep;
+      const Vec2d slo(std::min(e0.x, e1.x) - 2 * kStep, std::min(e0.y, e1.y) - 2 * kStep);
+      const Vec2d shi(std::max(e0.x, e1.x) + 2 * kStep, std::max(e0.y, e1.y) + 2 * kStep);
+      for (size_t qi = 0; qi < n_flat; ++qi) {
+        const Piece& Q = pieces_[qi];
+        if (qi == pi || !BBox(Q.lo, Q.hi).overlaps(BBox(slo, shi))) continue;
+        double t0 = 0, t1 = 1;
+        for (int j = 0; j < Q.poly.n && t0 < t1; ++j) {
+          Vec2d hn;
+          double hc;
+          if (!edgeHalfPlane(Q.poly.v[size_t(j)], Q.poly.v[size_t((j + 1) % Q.poly.n)], hn, hc)) continue;
+          // hn.(s0 + tau t) + hc <= 0
+          double f0 = hn.x * s0.x + hn.y * s0.y + hc, ft = hn.x * t.x + hn.y * t.y;
+          if (std::fabs(ft) < 1e-300) {
+            if (f0 > 0) t1 = t0 - 1;
+          } else if (ft > 0) {
+            t1 = std::min(t1, -f0 / ft);
+          } else {
+            t0 = std::max(t0, -f0 / ft);
+          }
+        }
+        if (!(t1 - t0 > 1e-12)) continue;
+        const Vec2d a = e0 + t * t0, b = e0 + t * t1;
+        const Wall w{a, b, pc.plane.at(a), pc.plane.at(b), std::max(Q.plane.at(a), pc.plane.at(a)),
+                     std::max(Q.plane.at(b), pc.plane.at(b)), n * -1.0};
+        const double tall = std::max(w.za1 - w.za0, w.zb1 - w.zb0);
+        if (!(tall > kTall)) continue;
+        walls_.push_back(w);
+        // The two leaning triangles: the foot on the edge, the top kWallLean * height inwards.
+        const Vec2d lean = n * (kWallLean * tall);
+        const Vec2d a1 = w.a + lean, b1 = w.b + lean;
+        const Vec3d tri[2][3] = {{{w.a.x, w.a.y, w.za0}, {w.b.x, w.b.y, w.zb0}, {b1.x, b1.y, w.zb1}},
+                                 {{w.a.x, w.a.y, w.za0}, {b1.x, b1.y, w.zb1}, {a1.x, a1.y, w.za1}}};
+        for (int ti = 0; ti < 2; ++ti) {
+          // Where the wall has no height at one end it is one triangle (the other would only
+          // cover the strip it leans over).
+          if (!((ti == 0 ? w.zb1 - w.zb0 : w.za1 - w.za0) > kTall)) continue;
+          const Vec3d* v = tri[ti];
+          Vec2d d1(v[1].x - v[0].x, v[1].y - v[0].y), d2(v[2].x - v[0].x, v[2].y - v[0].y);
+          double det = d1.x * d2.y - d1.y * d2.x;
+          if (!(std::fabs(det) > 1e-24)) continue;  // degenerate: no area
+          double dz1 = v[1].z - v[0].z, dz2 = v[2].z - v[0].z;
+          Piece wp;
+          wp.plane.g = Vec2d((dz1 * d2.y - dz2 * d1.y) / det, (d1.x * dz2 - d2.x * dz1) / det);
+          wp.plane.z0 = v[0].z - wp.plane.g.x * v[0].x - wp.plane.g.y * v[0].y;
+          for (int j = 0; j < 3; ++j) wp.poly.push(Vec2d(v[j].x, v[j].y));
+          if (wp.poly.area() < 0) reverse(wp.poly);
+          // Its scratch: the low side's groove, else (a pile-up over the base) the high side's;
+          // its material the low side's layer, what the cut exposes at its foot.
+          wp.groove = pc.groove >= 0 ? pc.groove : Q.groove;
+          wp.layer = pc.layer;
+          wp.wall = true;
+          if (pieces_.size() + leaning.size() >= kMaxPieces) return false;
+          leaning.push_back(wp);
+        }
+      }
+    }
+  pieces_.insert(pieces_.end(), leaning.begin(), leaning.end());
   for (Piece& pc : pieces_) {
     pc.lo = pc.hi = pc.poly.v[0];
     pc.poly.extend(pc.lo, pc.hi);
     pc.zmax = -1e300;
     for (int k = 0; k < pc.poly.n; ++k) pc.zmax = std::max(pc.zmax, pc.plane.at(pc.poly.v[size_t(k)]));
   }
-  // Steps of the composite: along every piece edge, the surface just outside higher than the
-  // piece. Each wall is found once, from its low side.
-  constexpr double kStep = 1e-9;  // mm outside the edge
-  constexpr double kTall = 1e-7;  // mm: lower steps are a slope over kStep, or rounding
-  for (const Piece& pc : pieces_)
-    for (int k = 0; k < pc.poly.n; ++k) {
-      Vec2d e0 = pc.poly.v[size_t(k)], e1 = pc.poly.v[size_t((k + 1) % pc.poly.n)];
-      Vec2d t = e1 - e0;
-      double len = std::sqrt(t.x * t.x + t.y * t.y);
-      if (!(len > 1e-9)) continue;
-      Vec2d n(t.y / len, -t.x / len);  // outward (the piece is counter-clockwise)
-      Vec2d m = (e0 + e1) * 0.5;
-      if (!(heightAt(m + n * kStep) > pc.plane.at(m) + kTall)) continue;
-      double h0 = heightAt(e0 + n * kStep + t * (kStep / len)), h1 = heightAt(e1 + n * kStep - t * (kStep / len));
-      walls_.push_back({e0, e1, pc.plane.at(e0), pc.plane.at(e1), std::max(h0, pc.plane.at(e0)),
-                        std::max(h1, pc.plane.at(e1)), n * -1.0});
-    }
   return true;
 }
 
@@ -465,38 +543,6 @@ void Surface::shadowsOn(size_t pi, Vec3d d, Vec2d lo, Vec2d hi, std::vector<Poly
     if (dist) dist->push_back(lc / q.n);
     if (owner) owner->push_back(qi);
   }
-  // Walls block the rays that cross them from the low side (out . d < 0).
-  for (size_t wi = 0; wi < walls_.size(); ++wi) {
-    const Wall& w = walls_[wi];
-    if (!(w.out.x * d.x + w.out.y * d.y < 0)) continue;
-    if (!reaches(Vec2d(std::min(w.a.x, w.b.x), std::min(w.a.y, w.b.y)), Vec2d(std::max(w.a.x, w.b.x), std::max(w.a.y, w.b.y)),
-                 std::max(w.za1, w.zb1)))
-      continue;
-    // The quad in 3-D, clipped to the d-side of P's plane (z - P(x, y) >= 0), then projected.
-    Vec3d quad[4] = {{w.a.x, w.a.y, w.za0}, {w.b.x, w.b.y, w.zb0}, {w.b.x, w.b.y, w.zb1}, {w.a.x, w.a.y, w.za1}};
-    Vec3d kept[8];
-    int nk = 0;
-    for (int i = 0; i < 4; ++i) {
-      const Vec3d& s0 = quad[i];
-      const Vec3d& s1 = quad[(i + 1) % 4];
-      double f0 = s0.z - P.at({s0.x, s0.y}), f1 = s1.z - P.at({s1.x, s1.y});
-      if (f0 >= 0) kept[nk++] = s0;
-      if ((f0 < 0 && f1 > 0) || (f0 > 0 && f1 < 0)) kept[nk++] = s0 + (s1 - s0) * (f0 / (f0 - f1));
-    }
-    if (nk < 3) continue;
-    Poly s;
-    double lc = 0;
-    for (int i = 0; i < nk; ++i) {
-      double lambda = (kept[i].z - P.at({kept[i].x, kept[i].y})) / den;
-      lc += lambda;
-      s.push(Vec2d(kept[i].x - lambda * d.x, kept[i].y - lambda * d.y));
-    }
-    if (s.area() < 0) reverse(s);
-    if (s.empty() || s.area() <= kSliver) continue;
-    out.push_back(s);
-    if (dist) dist->push_back(lc / nk);
-    if (owner) owner->push_back(pieces_.size() + wi);
-  }
 }
 
 namespace {
@@ -513,8 +559,13 @@ std::vector<Portion> Surface::visible(const Poly& fp, Vec3d e) const {
   if (!(afp > 0) || !(e.z > 0)) return out;
   Vec2d exy(e.x / e.z, e.y / e.z);
   thread_local std::vector<Poly> shadows;
+  // Below this elevation (about 0.0006 degrees) the walls' seen bands are too thin to place in
+  // doubles (their heights times 1e5 along the view); they are left out there, as a vertical
+  // wall's share of a footprint is then all but arbitrary anyway.
+  const bool walls_seen = e.z > 1e-5 * length(e);
   for (size_t pi = 0; pi < pieces_.size(); ++pi) {
     const Piece& P = pieces_[pi];
+    if (P.wall && !walls_seen) continue;
     // A point p of P is seen through the base-plane point u = p - P(p) e_xy / e_z, i.e.
     // M p = u + z0 e_xy / e_z with M = I - e_xy g^T / e_z; det M > 0 when P faces the viewer.
     double m00 = 1 - exy.x * P.plane.g.x, m01 = -exy.x * P.plane.g.y;
@@ -614,10 +665,6 @@ Hits Surface::scatter(const Portion& p, Vec3d d) const {
   for (size_t k : order) {
     if (rest.empty()) break;
     const Poly& s = shadows[k];
-    if (owner[k] >= pieces_.size()) {  // a wall: what it catches is not followed (see walls())
-      subtract(rest, s, kMaxFragments, overflow);
-      continue;
-    }
     const Piece& Q = pieces_[owner[k]];
     const double den = facing(Q.plane, d);  // < 0
     Portion hit;

@@ -81,6 +81,7 @@ struct Piece {
   int layer = 0;    // material layer (0: the top coat)
   Vec2d lo{0, 0}, hi{0, 0};  // bounding box of poly
   double zmax = 0;            // highest point
+  bool wall = false;          // one of the two steep pieces that stand for a wall (Surface::Wall)
 };
 
 // A portion: a region of one piece (convex fragments in (x, y)) with the footprint weight per unit
@@ -125,8 +126,17 @@ class Surface {
   // A vertical wall where the composite steps: a groove cutting below the base next to another's
   // pile-up, or a groove that ends before its cross-section has faded out. The quad over the
   // segment a-b from the low side's heights (za0, zb0) up to the high side's (za1, zb1); `out` is
-  // the horizontal unit normal towards the low side. Walls block and shadow; they are not
-  // themselves seen or lit (they are small and steep), and what reflects towards one is lost.
+  // the horizontal unit normal towards the low side. A wall is split where the piece beyond
+  // changes, so that its top is straight.
+  //
+  // A vertical plane has no height function over (x, y), so each wall enters pieces() as two
+  // triangles leaning back by kWallLean (their top edge moved by kWallLean times the wall's height
+  // towards the high side, under its rim): steep pieces like any other, so they are seen, lit,
+  // block, and take part in inter-reflection (the corner between a groove's floor and a cut
+  // pile-up sends light back as a corner reflector does). The strip under the rim that they lean
+  // into is then counted twice: up to 1e-4 of a footprint in the tests. Views within 1e-5 rad of
+  // the base plane do not see walls (visible()).
+  static constexpr double kWallLean = 1e-3;
   struct Wall {
     Vec2d a, b;
     double za0 = 0, zb0 = 0, za1 = 0, zb1 = 0;
@@ -140,7 +150,7 @@ class Surface {
   // The hidden part of piece `pi` along d as convex polygons in (x, y) (projections of the pieces
   // facing away from d that lie on its d-side), with each one's distance along d at its centroid.
   // Only occluders whose projection can reach the box [lo, hi] (the receiving portion's) are
-  // projected. Walls are reported with owner = pieces().size() + wall index.
+  // projected.
   void shadowsOn(size_t pi, Vec3d d, Vec2d lo, Vec2d hi, std::vector<Poly>& out, std::vector<double>* dist,
                  std::vector<size_t>* owner) const;
   std::vector<Piece> pieces_;

@@ -879,9 +879,9 @@ class Tracer {
     return shadeLevel(LineGeometry{gs, sec, shadow}, top, portions, wo_w, Rgb(1.0f), 0, ls, rng, nrays);
   }
 
-  // The same over the polygon surface of a crossing or an end. The visible shares are normalised
-  // to 1 (the steep walls where a groove's edge meets another's pile-up are not seen; they take
-  // a fraction of a percent at oblique views).
+  // The same over the polygon surface of a crossing or an end, whose pieces include the walls
+  // where the surface steps (Surface::Wall). The visible shares are normalised to 1: they sum to
+  // 1 up to what the leaning walls count twice and the fragments dropped at the cap.
   Rgb shadeArea(const GrooveSet& gs, const Material& top, Vec3f wo_w, const std::vector<LightSample>& ls, Rng& rng,
                 uint64_t& nrays) const {
     thread_local std::vector<Vec3d> light;

@@ -76,8 +76,8 @@ class GrooveAccuracy(unittest.TestCase):
     def test_star_past_the_polygon_caps(self):
         """Twelve grooves through one spot: footprints with more than eight grooves fall back to
         the blend of directions (docs/grooves.md). Not one of the issue's target scenes; the bounds
-        are regression bounds (measured 2026-11-25: 1.82% of pixels >= 10, mean 1.02, against
-        geometry at 256 spp with exact walls, whose reflections the groove renderer lacks)."""
+        are regression bounds (measured 2026-11-25: 1.56% of pixels >= 10, mean 0.93, against
+        geometry at 256 spp)."""
         ref = render("star_bar_ref", "star", "bar", "geometry", 256, noise_seed=1)
         grv = render("star_bar_groove", "star", "bar", "groove", 4)
         with open(os.path.join(ARGS.work, "star_bar_groove", "out", "manifest.json")) as f:
@@ -87,7 +87,7 @@ class GrooveAccuracy(unittest.TestCase):
               "footprints %s" % (st["mean"], st["pct_ge_10"], used), flush=True)
         self.assertGreater(used["fallbacks"], 0)
         self.assertGreater(used["polygons"], 0)
-        self.assertLess(st["pct_ge_10"], 2.2)
+        self.assertLess(st["pct_ge_10"], 2.0)
         self.assertLess(st["mean"], 1.2)
 
 

@@ -421,8 +421,9 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
       for (size_t gi = 0; gi < grooves.size() && !step; ++gi) {
         const Groove& g = grooves[gi];
         const double ta = g.t0 + g.tdir.x * e0.x + g.tdir.y * e0.y, tb = g.t0 + g.tdir.x * e1.x + g.tdir.y * e1.y;
-        for (double te : {g.t_lo, g.t_hi})
-          step = step || (std::fabs(te) < 1e29 && std::fabs(ta - te) < 1e-9 && std::fabs(tb - te) < 1e-9);
+        for (double te : {g.t_lo, g.t_hi})  // an end line where the cross-section has not faded out
+          step = step || (std::fabs(te) < 1e29 && 1 + g.rho * te > 1e-9 && std::fabs(ta - te) < 1e-9 &&
+                          std::fabs(tb - te) < 1e-9);
       }
       if (!step) continue;
       // The pieces beyond: the edge moved kStep outwards, clipped to each (tau in [0, 1] along it).

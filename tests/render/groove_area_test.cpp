@@ -12,6 +12,7 @@
 #include <map>
 #include <vector>
 
+#include "core/rng.h"
 #include "render/groove.h"
 
 namespace dg::groove::area {
@@ -368,6 +369,76 @@ TEST(GrooveArea, AnAbruptEndsWallIsSeenLitAndHit) {
   }
   EXPECT_NEAR(hit_wall, expect / fp.area(), 1e-4);
   EXPECT_GT(hit_wall, 0.1);
+}
+
+// Numerical stress: random crossings, near-parallel and coincident grooves, abrupt and faded
+// ends, footprints and directions. Whatever the layout, the pieces tile the region with the
+// composite height, every wall stands between the heights on its two sides, the visible shares
+// sum to 1 (up to the leaning walls' strips), lit fractions lie in [0, 1] and scattering keeps
+// each portion's weight.
+TEST(GrooveArea, RandomLayoutsKeepTheirInvariants) {
+  Rng rng(20261125);
+  auto uni = [&](double a, double b) { return a + (b - a) * rng.uniformD(); };
+  auto dir = [&](double elev_lo) {
+    double phi = uni(0, 2 * M_PI), z = uni(elev_lo, 1.0), r = std::sqrt(1 - z * z);
+    return Vec3d(r * std::cos(phi), r * std::sin(phi), z);
+  };
+  int built = 0, with_walls = 0;
+  for (int it = 0; it < 300; ++it) {
+    const int ng = 1 + int(rng.uniformD() * 3);
+    std::vector<Groove> gs;
+    const double a0 = uni(0, M_PI);
+    for (int i = 0; i < ng; ++i) {
+      // Every third groove nearly parallel to the first (down to 1e-9 rad), or along it exactly.
+      double a = i > 0 && it % 3 == 0 ? a0 + (it % 2 ? 0.0 : std::pow(10.0, -uni(3, 9))) : uni(0, M_PI);
+      Groove g = along(Vec2d(std::cos(a), std::sin(a)), uni(-0.06, 0.06), i);
+      if (rng.uniformD() < 0.4) g.t_lo = uni(-0.1, 0.0);
+      if (rng.uniformD() < 0.4) g.t_hi = uni(0.0, 0.1);
+      if (rng.uniformD() < 0.3) g.rho = uni(-12, 12);
+      gs.push_back(g);
+    }
+    Surface s;
+    const Poly region = rect(-0.3, -0.3, 0.3, 0.3);
+    if (!s.build(region, gs)) continue;
+    ++built;
+    with_walls += !s.walls().empty();
+    double total = 0;
+    for (const Piece& p : s.pieces()) {
+      ASSERT_TRUE(std::isfinite(p.plane.z0) && std::isfinite(p.plane.g.x) && std::isfinite(p.plane.g.y)) << it;
+      if (!p.wall) total += p.poly.area();
+    }
+    ASSERT_NEAR(total, region.area(), 1e-9) << "layout " << it;
+    for (const Surface::Wall& w : s.walls()) {
+      Vec2d m = (w.a + w.b) * 0.5, o = w.out * 1e-8;
+      if (length(Vec3d(w.b.x - w.a.x, w.b.y - w.a.y, 0)) < 1e-6) continue;  // too short to probe
+      EXPECT_NEAR((w.za0 + w.zb0) * 0.5, composite(gs, m + o), 1e-6) << "layout " << it;
+      EXPECT_NEAR((w.za1 + w.zb1) * 0.5, composite(gs, m - o), 1e-6) << "layout " << it;
+    }
+    const double h = uni(0.01, 0.06);
+    const Vec2d c(uni(-0.1, 0.1), uni(-0.1, 0.1));
+    const Poly fp = rect(c.x - h, c.y - h, c.x + h, c.y + h);
+    const Vec3d e = dir(0.2), l = dir(0.05), d = dir(0.05);
+    s.overflow = 0;
+    std::vector<Portion> vis = s.visible(fp, e);
+    double wsum = 0;
+    for (const Portion& p : vis) {
+      ASSERT_TRUE(std::isfinite(p.weight) && p.weight >= 0) << "layout " << it;
+      wsum += p.weight;
+      double lit = s.litFraction(p, l);
+      ASSERT_TRUE(std::isfinite(lit)) << "layout " << it;
+      EXPECT_GE(lit, 0.0);
+      EXPECT_LE(lit, 1.0);
+      const Vec3d n = s.pieces()[size_t(p.piece)].plane.normal();
+      if (n.x * d.x + n.y * d.y + n.z * d.z <= 0) continue;
+      Hits hs = s.scatter(p, d);
+      double sum = hs.escaped;
+      for (const Portion& q : hs.hits) sum += q.weight;
+      if (s.overflow == 0) EXPECT_NEAR(sum, p.weight, 1e-9 + 1e-6 * p.weight) << "layout " << it;
+    }
+    if (s.overflow == 0) EXPECT_NEAR(wsum, 1.0, 2e-3) << "layout " << it;
+  }
+  EXPECT_GT(built, 250);
+  EXPECT_GT(with_walls, 60);
 }
 
 // Past the caps build() refuses (the renderer then falls back to the blend): more than 8

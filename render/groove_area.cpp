@@ -479,7 +479,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
           wp.groove = pc.groove >= 0 ? pc.groove : Q.groove;
           wp.layer = pc.layer;
           wp.wall = true;
-          if (pieces_.size() + leaning.size() >= kMaxPieces) return false;
+          if (leaning.size() >= kMaxPieces) return false;  // walls have a cap of their own
           leaning.push_back(wp);
         }
       }

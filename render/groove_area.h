@@ -103,8 +103,8 @@ class Surface {
   static constexpr size_t kMaxFragments = 48;
   static constexpr size_t kMaxPieces = 600;
 
-  // Cuts `region` (convex, counter-clockwise) into pieces. False when the pieces would exceed
-  // kMaxPieces (the caller then falls back).
+  // Cuts `region` (convex, counter-clockwise) into pieces. False when the pieces of the surface,
+  // or those of its walls, would exceed kMaxPieces (the caller then falls back).
   bool build(const Poly& region, const std::vector<Groove>& grooves);
   const std::vector<Piece>& pieces() const { return pieces_; }
 

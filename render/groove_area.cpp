@@ -455,32 +455,45 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
         const double tall = std::max(w.za1 - w.za0, w.zb1 - w.zb0);
         if (!(tall > kTall)) continue;
         walls_.push_back(w);
-        // The two leaning triangles: the foot on the edge, the top kWallLean * height inwards.
-        const Vec2d lean = n * (kWallLean * tall);
-        const Vec2d a1 = w.a + lean, b1 = w.b + lean;
-        const Vec3d tri[2][3] = {{{w.a.x, w.a.y, w.za0}, {w.b.x, w.b.y, w.zb0}, {b1.x, b1.y, w.zb1}},
-                                 {{w.a.x, w.a.y, w.za0}, {b1.x, b1.y, w.zb1}, {a1.x, a1.y, w.za1}}};
-        for (int ti = 0; ti < 2; ++ti) {
-          // Where the wall has no height at one end it is one triangle (the other would only
-          // cover the strip it leans over).
-          if (!((ti == 0 ? w.zb1 - w.zb0 : w.za1 - w.za0) > kTall)) continue;
-          const Vec3d* v = tri[ti];
-          Vec2d d1(v[1].x - v[0].x, v[1].y - v[0].y), d2(v[2].x - v[0].x, v[2].y - v[0].y);
-          double det = d1.x * d2.y - d1.y * d2.x;
-          if (!(std::fabs(det) > 1e-24)) continue;  // degenerate: no area
-          double dz1 = v[1].z - v[0].z, dz2 = v[2].z - v[0].z;
-          Piece wp;
-          wp.plane.g = Vec2d((dz1 * d2.y - dz2 * d1.y) / det, (d1.x * dz2 - d2.x * dz1) / det);
-          wp.plane.z0 = v[0].z - wp.plane.g.x * v[0].x - wp.plane.g.y * v[0].y;
-          for (int j = 0; j < 3; ++j) wp.poly.push(Vec2d(v[j].x, v[j].y));
-          if (wp.poly.area() < 0) reverse(wp.poly);
-          // Its scratch: the low side's groove, else (a pile-up over the base) the high side's;
-          // its material the low side's layer, what the cut exposes at its foot.
-          wp.groove = pc.groove >= 0 ? pc.groove : Q.groove;
-          wp.layer = pc.layer;
-          wp.wall = true;
-          if (leaning.size() >= kMaxPieces) return false;  // walls have a cap of their own
-          leaning.push_back(wp);
+        // The wall in its own coordinates (s along a-b in [0, 1], z), cut at the base plane: the
+        // part above it is pile-up, of the top layer (as the 1-D sections' vertical steps take
+        // it); the part below shows the layer at the foot, what the cut exposes there.
+        Poly quad;
+        quad.push(Vec2d(0, w.za0));
+        quad.push(Vec2d(1, w.zb0));
+        quad.push(Vec2d(1, w.zb1));
+        quad.push(Vec2d(0, w.za1));
+        // A point (s, z) of the wall in 3-D, leaning back: moved towards the high side by
+        // kWallLean * tall times its height's fraction of the wall at s (0 on the foot).
+        auto place = [&](Vec2d sz) {
+          const double foot = w.za0 + (w.zb0 - w.za0) * sz.x, top = w.za1 + (w.zb1 - w.za1) * sz.x;
+          const double frac = top - foot > kTall * 1e-3 ? std::min(1.0, std::max(0.0, (sz.y - foot) / (top - foot))) : 0.0;
+          const Vec2d xy = w.a + (w.b - w.a) * sz.x + n * (kWallLean * tall * frac);
+          return Vec3d(xy.x, xy.y, sz.y);
+        };
+        for (int above = 0; above < 2; ++above) {
+          const Poly band = above ? clip(quad, Vec2d(0, -1), 0) : clip(quad, Vec2d(0, 1), 0);
+          for (int j = 1; j + 1 < band.n; ++j) {
+            const Vec2d t0 = band.v[0], t1 = band.v[size_t(j)], t2 = band.v[size_t(j + 1)];
+            // Triangles of no height (a wall's end where it has none) only cover its lean's strip.
+            if (!(std::fabs((t1.x - t0.x) * (t2.y - t0.y) - (t2.x - t0.x) * (t1.y - t0.y)) > 1e-9 * tall)) continue;
+            const Vec3d v[3] = {place(t0), place(t1), place(t2)};
+            Vec2d d1(v[1].x - v[0].x, v[1].y - v[0].y), d2(v[2].x - v[0].x, v[2].y - v[0].y);
+            double det = d1.x * d2.y - d1.y * d2.x;
+            if (!(std::fabs(det) > 1e-24)) continue;  // degenerate: no area
+            double dz1 = v[1].z - v[0].z, dz2 = v[2].z - v[0].z;
+            Piece wp;
+            wp.plane.g = Vec2d((dz1 * d2.y - dz2 * d1.y) / det, (d1.x * dz2 - d2.x * dz1) / det);
+            wp.plane.z0 = v[0].z - wp.plane.g.x * v[0].x - wp.plane.g.y * v[0].y;
+            for (int i = 0; i < 3; ++i) wp.poly.push(Vec2d(v[i].x, v[i].y));
+            if (wp.poly.area() < 0) reverse(wp.poly);
+            // Its scratch: the low side's groove, else (a pile-up over the base) the high side's.
+            wp.groove = pc.groove >= 0 ? pc.groove : Q.groove;
+            wp.layer = above ? 0 : pc.layer;
+            wp.wall = true;
+            if (leaning.size() >= kMaxPieces) return false;  // walls have a cap of their own
+            leaning.push_back(wp);
+          }
         }
       }
     }

@@ -457,7 +457,15 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
         walls_.push_back(w);
         // The wall in its own coordinates (s along a-b in [0, 1], z), cut at the base plane: the
         // part above it is pile-up, of the top layer (as the 1-D sections' vertical steps take
-        // it); the part below shows the layer at the foot, what the cut exposes there.
+        // it); below, it is cut at the low groove's layer interfaces, each band showing its
+        // layer (or, without them, the layer at the foot).
+        const std::vector<double>* cuts = nullptr;
+        for (const Groove& g : grooves)
+          if (pc.groove >= 0 && g.id == pc.groove) cuts = g.interfaces;
+        std::vector<double> levels{0.0};  // band boundaries, top first
+        if (cuts)
+          for (double dep : *cuts)
+            if (-dep > std::min(w.za0, w.zb0)) levels.push_back(-dep);
         Poly quad;
         quad.push(Vec2d(0, w.za0));
         quad.push(Vec2d(1, w.zb0));
@@ -471,8 +479,13 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
           const Vec2d xy = w.a + (w.b - w.a) * sz.x + n * (kWallLean * tall * frac);
           return Vec3d(xy.x, xy.y, sz.y);
         };
-        for (int above = 0; above < 2; ++above) {
-          const Poly band = above ? clip(quad, Vec2d(0, -1), 0) : clip(quad, Vec2d(0, 1), 0);
+        for (size_t bi = 0; bi <= levels.size(); ++bi) {
+          // Band bi: between levels[bi - 1] (above; none for the first) and levels[bi] (below;
+          // none for the last). Band 0 is above the base plane.
+          Poly band = quad;
+          if (bi > 0) band = clip(band, Vec2d(0, 1), -levels[bi - 1]);  // z <= upper level
+          if (bi < levels.size()) band = clip(band, Vec2d(0, -1), levels[bi]);  // z >= lower level
+          const int band_layer = bi == 0 ? 0 : cuts ? int(bi) - 1 : pc.layer;
           for (int j = 1; j + 1 < band.n; ++j) {
             const Vec2d t0 = band.v[0], t1 = band.v[size_t(j)], t2 = band.v[size_t(j + 1)];
             // Triangles of no height (a wall's end where it has none) only cover its lean's strip.
@@ -489,7 +502,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
             if (wp.poly.area() < 0) reverse(wp.poly);
             // Its scratch: the low side's groove, else (a pile-up over the base) the high side's.
             wp.groove = pc.groove >= 0 ? pc.groove : Q.groove;
-            wp.layer = above ? 0 : pc.layer;
+            wp.layer = band_layer;
             wp.wall = true;
             if (leaning.size() >= kMaxPieces) return false;  // walls have a cap of their own
             leaning.push_back(wp);

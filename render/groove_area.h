@@ -70,6 +70,9 @@ struct Groove {
   double t_lo = -1e30, t_hi = 1e30;
   const std::vector<Vec2d>* pts = nullptr;
   const std::vector<int>* layer = nullptr;
+  // Depths (mm, top first) of the interfaces between its coating layers: the bands of the walls
+  // that it cuts below the base plane. Null: a wall below the base shows its foot's layer.
+  const std::vector<double>* interfaces = nullptr;
   int id = 0;  // caller's index
 };
 

@@ -730,10 +730,13 @@ class Tracer {
     region.push({hi.x + R, hi.y + R});
     region.push({lo.x - R, hi.y + R});
     thread_local std::vector<Profile> profiles;
+    thread_local std::vector<std::vector<double>> interfaces;  // per groove, for the walls' bands
     thread_local std::vector<ga::Groove> grooves;
     profiles.clear();
+    interfaces.clear();
     grooves.clear();
     profiles.reserve(near.size());
+    interfaces.reserve(near.size());
     for (size_t i = 0; i < near.size(); ++i) {
       const NearGroove& ng = near[i];
       float k = ng.sc->scaleAt(ng.pp.s);
@@ -755,6 +758,8 @@ class Tracer {
       g.t_hi = (len - double(ng.pp.s)) * mm;
       g.pts = &profiles.back().pts;
       g.layer = &profiles.back().layer;
+      interfaces.push_back(ng.sc->layers().interfaces());
+      g.interfaces = &interfaces.back();
       g.id = int(i);
       grooves.push_back(g);
     }

@@ -378,6 +378,35 @@ TEST(GrooveArea, AnAbruptEndsWallIsSeenLitAndHit) {
   EXPECT_GT(hit_wall, 0.1);
 }
 
+// The wall across an abrupt end passes the coating's layers: each band of it shows the layer at
+// its depth (interfaces at 4, 8 and 12 micrometres), and walls above the base plane (cut pile-ups)
+// the top layer.
+TEST(GrooveArea, WallsShowTheLayersTheyCut) {
+  const std::vector<double> cuts = {0.004, 0.008, 0.012};
+  std::vector<Groove> gs = shortAcross();
+  for (Groove& g : gs) g.interfaces = &cuts;
+  Surface s;
+  ASSERT_TRUE(s.build(rect(-0.3, -0.3, 0.3, 0.3), gs));
+  std::map<int, int> seen;
+  for (const Piece& p : s.pieces()) {
+    if (!p.wall) continue;
+    double zlo = 1e300, zhi = -1e300;
+    for (int k = 0; k < p.poly.n; ++k) {
+      double z = p.plane.at(p.poly.v[size_t(k)]);
+      zlo = std::min(zlo, z);
+      zhi = std::max(zhi, z);
+    }
+    const double mid = 0.5 * (zlo + zhi);
+    int expect = 0;
+    for (double d : cuts) expect += mid < 0 && -mid >= d;
+    EXPECT_EQ(p.layer, expect) << "wall piece from z " << zlo << " to " << zhi;
+    // A band lies between two consecutive levels.
+    for (double level : {0.0, -0.004, -0.008, -0.012}) EXPECT_FALSE(zlo < level - 1e-12 && zhi > level + 1e-12) << level;
+    ++seen[p.layer];
+  }
+  EXPECT_GE(seen.size(), 4u);  // the top layer above the base and three below
+}
+
 // Numerical stress: random crossings, near-parallel and coincident grooves, abrupt and faded
 // ends, footprints and directions. Whatever the layout, the pieces tile the region with the
 // composite height, every wall stands between the heights on its two sides, the visible shares

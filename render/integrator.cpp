@@ -400,6 +400,9 @@ class Tracer {
           break;
         }
       }
+      // The scratch reference's cut mesh: below the part's surface a hit shows the coating layer
+      // at its depth, as the groove renderer's facets do (facetMaterial).
+      if (!s_.layer_interfaces.empty()) m = layerAt(h, m);
       DefectShading ds = applyDefects(sp, wo_w, h, peel);
       Frame fr = Frame::fromNormalTangent(sp.ns, sp.dpdu);
       Vec3f wo = fr.toLocal(wo_w);
@@ -1138,6 +1141,17 @@ class Tracer {
     return L;
   }
 
+  // The material at hit h of a mesh with heights: the layer at the hit's depth (its height
+  // interpolated over the triangle), `top` above the surface, in the top layer or without heights.
+  const Material& layerAt(const Hit& h, const Material& top) const {
+    const TriangleMesh& mesh = s_.part->mesh();
+    if (mesh.heights.size() != mesh.positions.size()) return top;
+    const uint32_t* f = &mesh.indices[3 * size_t(h.prim)];
+    const float z = mesh.heights[f[0]] * (1 - h.b1 - h.b2) + mesh.heights[f[1]] * h.b1 + mesh.heights[f[2]] * h.b2;
+    size_t layer = 0;
+    for (double d : s_.layer_interfaces) layer += z < 0 && -double(z) >= d;
+    return layer == 0 || layer >= s_.layer_materials.size() ? top : s_.layer_materials[layer];
+  }
   const Material& facetMaterial(const GrooveSet& gs, int layer, const Material& top) const {
     if (gs.one_material || layer <= 0 || size_t(layer) >= s_.layer_materials.size()) return top;
     return s_.layer_materials[size_t(layer)];

@@ -17,6 +17,9 @@ struct TriangleMesh {
   // their local stretch here so that a defect sized in mm can be corrected where the chart is not
   // isometric.
   std::vector<float> mmPerUv;
+  // Optional, per vertex: the height (mm) along the normal above the part's own surface, where it
+  // was moved (the scratch reference's cut mesh, so that a hit knows which coating layer it is in).
+  std::vector<float> heights;
   std::string source;  // "builtin:plate" or the file it was loaded from
 
   size_t triangleCount() const { return indices.size() / 3; }

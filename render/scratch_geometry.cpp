@@ -260,6 +260,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
   struct Soup {
     std::vector<Vec3f> positions, normals;
     std::vector<Vec2f> uvs;
+    std::vector<float> heights;
   };
   const size_t block = 1024;
   const size_t nblocks = (leaves.size() + block - 1) / block;
@@ -471,24 +472,26 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
               const double ta = std::max(hv[k], beyond(a)), tb = std::max(hv[k1], beyond(b));
               const Vec3d A0 = P[k], B0 = P[k1], A1 = Bs[k] + N[k] * ta, B1 = Bs[k1] + N[k1] * tb;
               const Vec3d inward = bc - (Bs[k] + Bs[k1]) * 0.5;  // the wall faces the lower piece
-              auto wall = [&](Vec3d p0, Vec3d p1, Vec3d p2, Vec2f u0, Vec2f u1, Vec2f u2) {
+              auto wall = [&](Vec3d p0, Vec3d p1, Vec3d p2, Vec2f u0, Vec2f u1, Vec2f u2, double h0, double h1, double h2) {
                 Vec3d g = cross(p1 - p0, p2 - p0);
                 const double ee = std::max(dot(p1 - p0, p1 - p0), dot(p2 - p0, p2 - p0));
                 if (!(length(g) > 1e-10 * ee)) return;
                 if (dot(g, inward) < 0) {
                   std::swap(p1, p2);
                   std::swap(u1, u2);
+                  std::swap(h1, h2);
                   g = -g;
                 }
                 const Vec3f nf(g / length(g));
-                for (auto [pp, uu] : {std::pair{p0, u0}, std::pair{p1, u1}, std::pair{p2, u2}}) {
+                for (auto [pp, uu, hh] : {std::tuple{p0, u0, h0}, std::tuple{p1, u1, h1}, std::tuple{p2, u2, h2}}) {
                   out.positions.push_back(Vec3f(pp));
                   out.uvs.push_back(uu);
                   out.normals.push_back(nf);
+                  out.heights.push_back(float(hh));
                 }
               };
-              wall(A0, B0, B1, T[k], T[k1], T[k1]);
-              wall(A0, B1, A1, T[k], T[k1], T[k]);
+              wall(A0, B0, B1, T[k], T[k1], T[k1], hv[k], hv[k1], tb);
+              wall(A0, B1, A1, T[k], T[k1], T[k], hv[k], tb, ta);
             }
           }
           // The facet's normal in the triangle's plane (the piece's area vector, so that a sliver of
@@ -509,6 +512,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
               out.positions.push_back(Vec3f(P[v]));
               out.uvs.push_back(T[v]);
               out.normals.push_back(Vec3f(normalize(turn(pt.ng, N[v], nf))));
+              out.heights.push_back(float(hv[v]));
             }
           }
         }
@@ -524,6 +528,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
   out.positions.reserve(nv);
   out.uvs.reserve(nv);
   out.normals.reserve(nv);
+  out.heights.reserve(nv);
   for (uint32_t f : kept) {
     const uint32_t* id = &part.indices[3 * f];
     const Vec3f g = normalize(cross(part.positions[id[1]] - part.positions[id[0]], part.positions[id[2]] - part.positions[id[0]]));
@@ -531,13 +536,15 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       out.positions.push_back(part.positions[id[k]]);
       out.uvs.push_back(part.uvs[id[k]]);
       out.normals.push_back(has_normals ? part.normals[id[k]] : g);
+      out.heights.push_back(0.0f);
     }
   }
   for (Soup& sp : soups) {
     out.positions.insert(out.positions.end(), sp.positions.begin(), sp.positions.end());
     out.uvs.insert(out.uvs.end(), sp.uvs.begin(), sp.uvs.end());
     out.normals.insert(out.normals.end(), sp.normals.begin(), sp.normals.end());
-    Soup().positions.swap(sp.positions);
+    out.heights.insert(out.heights.end(), sp.heights.begin(), sp.heights.end());
+    sp = Soup();  // free each block as it is copied
   }
   out.indices.resize(nv);
   for (size_t k = 0; k < nv; ++k) out.indices[k] = uint32_t(k);

@@ -46,6 +46,9 @@ TEST(ScratchGeometry, VerticesFollowTheCrossSectionAndNormalsAreTheFacets) {
       err = std::min(err, std::fabs(double(dot(m.positions[i] - plate.positions[0], n0)) - double(s.height(q))));
     // The plate lies in a plane through the origin's level: compare against the undisplaced point.
     double above = dot(m.positions[i] - plate.positions[0], n0);
+    // Every vertex carries the height it was moved by (the integrator's layer lookup).
+    ASSERT_EQ(m.heights.size(), m.positions.size());
+    EXPECT_NEAR(m.heights[i], above, 1e-5) << "vertex " << i;
     worst = std::max(worst, err);
     zmin = std::min(zmin, above);
   }

@@ -400,9 +400,13 @@ class Tracer {
           break;
         }
       }
-      // The scratch reference's cut mesh: below the part's surface a hit shows the coating layer
-      // at its depth, as the groove renderer's facets do (facetMaterial).
-      if (!s_.layer_interfaces.empty()) m = layerAt(h, m);
+      // The scratch reference's cut mesh: a hit inside a scratch (moved off the part's surface)
+      // shows the coating layer at its depth, and the cut has no orange peel, as the groove
+      // renderer's facets (facetMaterial; they are shaded before the peel is applied).
+      if (const float z = cutHeight(h); z != 0.0f) {
+        peel = Vec2f(0.0f, 0.0f);
+        m = layerAt(z, m);
+      }
       DefectShading ds = applyDefects(sp, wo_w, h, peel);
       Frame fr = Frame::fromNormalTangent(sp.ns, sp.dpdu);
       Vec3f wo = fr.toLocal(wo_w);
@@ -1141,13 +1145,17 @@ class Tracer {
     return L;
   }
 
-  // The material at hit h of a mesh with heights: the layer at the hit's depth (its height
-  // interpolated over the triangle), `top` above the surface, in the top layer or without heights.
-  const Material& layerAt(const Hit& h, const Material& top) const {
+  // The height of hit h above the part's own surface, for a mesh that keeps its vertices' heights
+  // (the scratch reference; 0 for any other mesh), interpolated over the triangle.
+  float cutHeight(const Hit& h) const {
     const TriangleMesh& mesh = s_.part->mesh();
-    if (mesh.heights.size() != mesh.positions.size()) return top;
+    if (mesh.heights.size() != mesh.positions.size()) return 0.0f;
     const uint32_t* f = &mesh.indices[3 * size_t(h.prim)];
-    const float z = mesh.heights[f[0]] * (1 - h.b1 - h.b2) + mesh.heights[f[1]] * h.b1 + mesh.heights[f[2]] * h.b2;
+    return mesh.heights[f[0]] * (1 - h.b1 - h.b2) + mesh.heights[f[1]] * h.b1 + mesh.heights[f[2]] * h.b2;
+  }
+  // The material at height z: the coating layer at that depth, `top` above the surface or in the
+  // top layer.
+  const Material& layerAt(float z, const Material& top) const {
     size_t layer = 0;
     for (double d : s_.layer_interfaces) layer += z < 0 && -double(z) >= d;
     return layer == 0 || layer >= s_.layer_materials.size() ? top : s_.layer_materials[layer];

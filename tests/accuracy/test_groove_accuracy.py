@@ -81,6 +81,12 @@ class GrooveAccuracy(unittest.TestCase):
         this gave 4.3% of pixels >= 10."""
         self.check("layers", "ring", material="paint", fov_deg=2)
 
+    def test_layers_bar(self):
+        """The same under the bar light: the walls' highlights are the clear coat's sharp lobe,
+        which the reference must not tilt with the uncut coat's orange peel (with it: 1.4% of
+        pixels >= 10)."""
+        self.check("layers", "bar", material="paint", fov_deg=2)
+
     def test_star_past_the_polygon_caps(self):
         """Twelve grooves through one spot: footprints with more than eight grooves fall back to
         the blend of directions (docs/grooves.md). Not one of the issue's target scenes; the bounds

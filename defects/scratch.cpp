@@ -659,6 +659,7 @@ Scratch Scratch::fromProfile(ScratchPath path, Profile profile, const ScratchPer
 void Scratch::build(const ScratchPerturbation& pert) {
   if (path_.points().size() < 2) throw std::invalid_argument("Scratch: empty path");
   if (layers_.layers.empty()) throw std::invalid_argument("Scratch: empty layer stack");
+  interfaces_ = layers_.interfaces();
   if (!(pert.noise_amplitude >= 0 && pert.noise_amplitude < 1) || !(pert.noise_wavelength_mm > 0) ||
       !(pert.fade_length_mm >= 0))
     throw std::invalid_argument(

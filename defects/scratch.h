@@ -270,6 +270,8 @@ class Scratch final : public Defect {
   const ScratchPath& path() const { return path_; }
   const Profile& referenceProfile() const { return ref_; }
   const LayerStack& layers() const { return layers_; }
+  // layers().interfaces(), computed once.
+  const std::vector<double>& interfaces() const { return interfaces_; }
   float scaleAt(float s) const;  // piecewise-linear table lookup
   float maxScale() const { return max_scale_; }
   // The cross-section at s: reference scaled by scaleAt(s), facets split and assigned layers.
@@ -289,6 +291,7 @@ class Scratch final : public Defect {
   ScratchPath path_;
   Profile ref_;
   LayerStack layers_;
+  std::vector<double> interfaces_;
   bool is_process_ = false;
   ScratchProcess proc_;
   ProcessCrossSection proc_cs_;

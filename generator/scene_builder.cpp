@@ -639,7 +639,7 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
   if (!scratches.empty()) {
     meta["scratches"] = {{"rendered_as", scratch_mode}};
     s.scene.layer_materials = layerMaterials(s.scene.material, scratches.front()->layers());
-    s.scene.layer_interfaces = scratches.front()->layers().interfaces();
+    s.scene.layer_stack = scratches.front()->layers();
   }
   if (scratch_mode == "geometry" && !scratches.empty()) {
     if (!displaced.empty())

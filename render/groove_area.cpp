@@ -395,10 +395,13 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   constexpr double kStep = 1e-9;  // mm outside the edge
   constexpr double kTall = 1e-7;  // mm: lower steps are a slope over kStep, or rounding
   const size_t n_flat = pieces_.size();
-  for (Piece& pc : pieces_) {
+  auto bound = [](Piece& pc) {
     pc.lo = pc.hi = pc.poly.v[0];
     pc.poly.extend(pc.lo, pc.hi);
-  }
+    pc.zmax = -1e300;
+    for (int k = 0; k < pc.poly.n; ++k) pc.zmax = std::max(pc.zmax, pc.plane.at(pc.poly.v[size_t(k)]));
+  };
+  for (Piece& pc : pieces_) bound(pc);
   std::vector<Piece> leaning;  // appended to pieces_ at the end
   for (size_t pi = 0; pi < n_flat; ++pi)
     for (int k = 0; k < pieces_[pi].poly.n; ++k) {
@@ -510,13 +513,8 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
         }
       }
     }
+  for (Piece& pc : leaning) bound(pc);
   pieces_.insert(pieces_.end(), leaning.begin(), leaning.end());
-  for (Piece& pc : pieces_) {
-    pc.lo = pc.hi = pc.poly.v[0];
-    pc.poly.extend(pc.lo, pc.hi);
-    pc.zmax = -1e300;
-    for (int k = 0; k < pc.poly.n; ++k) pc.zmax = std::max(pc.zmax, pc.plane.at(pc.poly.v[size_t(k)]));
-  }
   return true;
 }
 

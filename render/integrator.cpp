@@ -737,13 +737,10 @@ class Tracer {
     region.push({hi.x + R, hi.y + R});
     region.push({lo.x - R, hi.y + R});
     thread_local std::vector<Profile> profiles;
-    thread_local std::vector<std::vector<double>> interfaces;  // per groove, for the walls' bands
     thread_local std::vector<ga::Groove> grooves;
     profiles.clear();
-    interfaces.clear();
     grooves.clear();
     profiles.reserve(near.size());
-    interfaces.reserve(near.size());
     for (size_t i = 0; i < near.size(); ++i) {
       const NearGroove& ng = near[i];
       float k = ng.sc->scaleAt(ng.pp.s);
@@ -765,8 +762,7 @@ class Tracer {
       g.t_hi = (len - double(ng.pp.s)) * mm;
       g.pts = &profiles.back().pts;
       g.layer = &profiles.back().layer;
-      interfaces.push_back(ng.sc->layers().interfaces());
-      g.interfaces = &interfaces.back();
+      g.interfaces = &ng.sc->interfaces();
       g.id = int(i);
       grooves.push_back(g);
     }
@@ -1156,8 +1152,7 @@ class Tracer {
   // The material at height z: the coating layer at that depth, `top` above the surface or in the
   // top layer.
   const Material& layerAt(float z, const Material& top) const {
-    size_t layer = 0;
-    for (double d : s_.layer_interfaces) layer += z < 0 && -double(z) >= d;
+    const size_t layer = z < 0 ? size_t(s_.layer_stack.layerAtDepth(-double(z))) : 0;
     return layer == 0 || layer >= s_.layer_materials.size() ? top : s_.layer_materials[layer];
   }
   const Material& facetMaterial(const GrooveSet& gs, int layer, const Material& top) const {

@@ -33,9 +33,9 @@ struct RenderScene {
   // The material of each coating layer a scratch facet may expose (index = LayerStack layer; 0 =
   // the part's own material, which then keeps its paint variation).
   std::vector<Material> layer_materials;
-  // Depths (mm, top first) of the interfaces between those layers. With a mesh that carries
-  // heights (the scratch reference), a hit below the part's surface shows the layer at its depth.
-  std::vector<double> layer_interfaces;
+  // Their stack. With a mesh that carries heights (the scratch reference), a hit below the part's
+  // surface shows the layer at its depth.
+  LayerStack layer_stack;
 };
 
 // The materials a scratch exposes, per layer: the part's own material for layer 0; for car paint

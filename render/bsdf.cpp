@@ -1,9 +1,11 @@
-// BSDFs of the four material kinds (see bsdf.h). Everything below evalBsdf/pdfBsdf/sampleBsdf runs
+// BSDFs of the five material kinds (see bsdf.h). Everything below evalBsdf/pdfBsdf/sampleBsdf runs
 // once or more per path vertex, so it is plain float arithmetic: no allocation, no virtual calls,
 // no std::complex.
 //
-// Conventions: local shading frame, normal = +z, wo and wi point away from the surface, reflection
-// only (a direction with z <= 0 gives f = 0 and pdf = 0). Microfacet alpha = roughness^2.
+// Conventions: local shading frame, normal = +z, wo and wi point away from the surface, wo.z > 0
+// (otherwise f = 0, pdf = 0 and nothing is sampled). Every kind but Glass is reflection only (wi.z
+// <= 0 gives f = 0 and pdf = 0); Glass also transmits, into wi.z < 0. Microfacet alpha =
+// roughness^2.
 #include "render/bsdf.h"
 
 #include <cctype>
@@ -385,6 +387,9 @@ inline LobeProbs lobeProbs(const Material& m, Vec3f wo) {
     case MaterialKind::RoughDiffuse:
       lp.p[kDiffuse] = 1.0f;
       return lp;
+    case MaterialKind::Glass:  // one lobe: the choice between reflection and refraction is inside
+      lp.p[kSpec] = 1.0f;
+      return lp;
     case MaterialKind::Plastic: {
       const float f = fresnelDielectric(wo.z, m.ior);
       w[kSpec] = f;
@@ -415,6 +420,192 @@ inline LobeProbs lobeProbs(const Material& m, Vec3f wo) {
   return lp;
 }
 
+// ------------------------------------------------------------------------------------------------
+// Glass: a rough dielectric interface that reflects and refracts
+// ------------------------------------------------------------------------------------------------
+//
+// Walter, Marschner, Li & Torrance 2007 ("Microfacet Models for Refraction through Rough
+// Surfaces", EGSR). wo lies on the +z side, in a medium of index n_o; the far side (-z) has index
+// n_t, and eta = m.ior = n_t / n_o is the RELATIVE index (the integrator passes 1.5 for a ray
+// arriving from air, 1/1.5 for one arriving from inside the glass). wi.z > 0 is reflection,
+// wi.z < 0 transmission. Clear glass: the value is grey and base_color is not used.
+//
+// Reflection: the dielectric microfacet lobe of the plastic coat,
+//   f_r = F(wo.h; eta) D(h) G2(wo, wi) / (4 cos_o cos_i),   h = normalize(wo + wi),
+// where for eta < 1 the exact Fresnel term is 1 beyond the critical angle (total internal
+// reflection), so everything is reflected there.
+//
+// Transmission: wi is reached from wo by refraction through the microfacet whose normal is the
+// generalised half vector h = +-normalize(wo + eta wi) (Walter eq. 16), the sign chosen so that
+// h.z > 0. Because wo + eta wi is parallel to h, the tangential parts satisfy sin(theta_o) = eta
+// sin(theta_i) about h: Snell's law holds by construction. A pair is admissible only when wo is in
+// front of that facet and wi behind it, wo.h > 0 and wi.h < 0; otherwise f = 0.
+//   Walter's eq. 21 is written for his incident direction i and outgoing o. Read with i = wo (the
+//   direction the path arrives from) it is the FLUX (importance) form
+//     f_t^flux = |wo.h| |wi.h| / (|wo.z| |wi.z|) eta^2 (1 - F) D(h) G2 / (wo.h + eta wi.h)^2,
+//   whose smooth limit integrates (with |cos_i|) to 1 - F, the transmitted share of the energy.
+//   Radiance is not conserved through an interface, L / n^2 is (Veach 1997, thesis §5.2): radiance
+//   arriving from the far side leaves toward wo as (n_o / n_t)^2 (1 - F) L = (1 - F) L / eta^2, the
+//   solid angle widening as it leaves the denser medium. Camera paths carry radiance, so eval()
+//   returns the RADIANCE form (Walter's eq. 21 read with i = wi, the direction light comes from):
+//     f_t = f_t^flux / eta^2
+//         = |wo.h| |wi.h| / (|wo.z| |wi.z|) (1 - F) D(h) G2 / (wo.h + eta wi.h)^2.
+//   Its smooth limit carries (1 - F) / eta^2 of the radiance. A camera ray that enters glass (eta =
+//   1.5) and leaves it again (eta = 1/1.5) picks up 1/1.5^2 and then 1.5^2: through a smooth slab
+//   the factors cancel and only the two Fresnel losses remain. This BTDF obeys the generalised
+//   reciprocity of Veach 1997 (eq. 5.14), f(wi -> wo) / n_o^2 = f(wo -> wi) / n_t^2. Evaluated
+//   from wi's side, as the integrator does for a ray arriving from there (the frame turned over,
+//   z -> -z, so that wi' = wi lies above and wo' = wo below, relative index 1/eta):
+//     f_t(wi', wo'; 1/eta) = eta^2 f_t(wo, wi; eta),
+//   since both pairs have the same half vector (turned over) and (wi'.h' + wo'.h' / eta)^2 =
+//   (wo.h + eta wi.h)^2 / eta^2. The flux form obeys the reverse relation, f_t^flux(wi', wo';
+//   1/eta) = f_t^flux(wo, wi; eta) / eta^2.
+//   (wo.h + eta wi.h)^2 is computed as |wo + eta wi|^2, the same number since h is parallel to
+//   wo + eta wi. G2 is the height-correlated Smith form used for reflection, 1 / (1 + Lambda(wo) +
+//   Lambda(wi)); Lambda depends on z^2 only, so it needs no special case below the surface. (For
+//   transmission the two directions see the microsurface from opposite sides, so height
+//   correlation works the other way: a facet high enough to be seen from above is less likely to
+//   be seen from below, and a height-correlated transmission G2 would be smaller than this one;
+//   Heitz 2014 discusses that case. The form used here never exceeds G1(wo), so it cannot create
+//   energy; it is the usual choice for rough glass.) The Fresnel factor of
+//   the pair is taken on the side of the lower index, F(cos_i; eta) = F(cos_t; 1/eta): seen from
+//   the denser side F has a square-root singularity at the critical angle, seen from the other it
+//   has none, and the pair and its reverse then get the same F to rounding.
+//
+// Sampling: h from sampleMicrofacetNormal (GGX visible normals or Beckmann D cos), then reflection
+// with probability F(wo.h; eta) (decided by u0, free since Glass has a single lobe), else
+// refraction by Snell's law about h. The density of wi is
+//   reflection:    F pdf_h(h) / (4 wo.h)                                 (Walter eq. 14)
+//   transmission:  (1 - F) pdf_h(h) eta^2 |wi.h| / (wo.h + eta wi.h)^2    (Walter eq. 17),
+// pdf_h = G1(wo) max(0, wo.h) D(h) / wo.z (GGX visible normals) or D(h) h.z (Beckmann). With GGX
+// the sample weights f |cos_i| / pdf are G2 / G1(wo) for reflection and G2 / (G1(wo) eta^2) for
+// transmission: at most 1 and 1 / eta^2.
+//
+// Guards. At eta = 1 the interface vanishes: the transmission becomes a delta along -wo, which no
+// density represents, and wo + eta wi cancels down to rounding noise. eta is therefore kept at
+// least kEtaGap from 1 (1 + kEtaGap above, 1 / (1 + kEtaGap) below; NaN, infinite or non-positive
+// ior counts as 1): there the generalised half vector is still known to ~1e-4 rad, and the sample
+// weight does not depend on it anyway, so index-matched glass comes out (nearly) invisible. eta is
+// also clamped to [1/kMaxEta, kMaxEta], which keeps eta^2 finite.
+
+constexpr float kEtaGap = 1e-3f;
+constexpr float kMaxEta = 100.0f;
+
+// The probability of picking reflection at a facet of Fresnel reflectance f: f itself, or at least
+// Material::reflect_share (so total internal reflection, f = 1, still always reflects).
+inline float reflectChoice(const Material& m, float f) {
+  return m.reflect_share > 0.0f && m.reflect_share < 1.0f ? std::max(m.reflect_share, f) : f;
+}
+
+inline float glassEta(float ior) {
+  const float eta = (ior > 0.0f && ior < std::numeric_limits<float>::infinity())
+                        ? clampf(ior, 1.0f / kMaxEta, kMaxEta)
+                        : 1.0f;
+  return eta >= 1.0f ? std::max(eta, 1.0f + kEtaGap) : std::min(eta, 1.0f / (1.0f + kEtaGap));
+}
+
+// Density with which sampleMicrofacetNormal draws the microfacet normal h for wo (per solid angle
+// of h): G1(wo) max(0, wo.h) D(h) / wo.z for GGX visible normals, D(h) h.z for Beckmann.
+inline float normalPdf(MicrofacetModel model, float alpha, Vec3f wo, Vec3f h) {
+  const float d = ndf(model, alpha, h);
+  if (model == MicrofacetModel::GGX) {
+    const float oh = dot(wo, h);
+    return oh > 0.0f ? smithG1(model, alpha, wo) * oh * d / wo.z : 0.0f;
+  }
+  return d * h.z;
+}
+
+// The refraction geometry of a pair wo (above) / wi (below): the generalised half vector, both
+// cosines with it, |wo + eta wi|^2 = (wo.h + eta wi.h)^2 and the Fresnel reflectance of the facet.
+// False when no microfacet refracts wo into wi (wrong side of the facet, or a degenerate h).
+struct Refraction {
+  Vec3f h;
+  float cos_o = 0.0f;  // wo.h > 0
+  float cos_i = 0.0f;  // |wi.h|
+  float len2 = 0.0f;
+  float fresnel = 1.0f;
+};
+
+inline bool refractionOf(Vec3f wo, Vec3f wi, float eta, Refraction& r) {
+  // s, parallel to h, is (n_dense w_dense + n_rare w_rare) / n_rare: the pair seen from the other
+  // side (frame turned over, 1/eta) then gives the same vector, turned over, to the bit.
+  const Vec3f s = eta >= 1.0f ? wo + wi * eta : wo * (1.0f / eta) + wi;
+  const float s2 = dot(s, s);
+  if (!(s2 > 0.0f)) return false;
+  r.len2 = eta >= 1.0f ? s2 : s2 * (eta * eta);  // s = (wo + eta wi) / eta when eta < 1
+  r.h = s / std::sqrt(s2);
+  if (r.h.z < 0.0f) r.h = -r.h;
+  r.cos_o = dot(wo, r.h);
+  const float ih = dot(wi, r.h);
+  if (!(r.h.z > 0.0f) || !(r.cos_o > 0.0f) || !(ih < 0.0f)) return false;
+  r.cos_i = -ih;
+  // The same reflectance from either side; taken where it has no singularity (see above).
+  r.fresnel =
+      eta >= 1.0f ? fresnelDielectric(r.cos_o, eta) : fresnelDielectric(r.cos_i, 1.0f / eta);
+  return true;
+}
+
+inline float glassEval(const Material& m, Vec3f wo, Vec3f wi) {
+  if (!(wo.z > 0.0f)) return 0.0f;
+  const float eta = glassEta(m.ior);
+  const float alpha = alphaOf(m.roughness);
+  if (wi.z > 0.0f) {
+    // As for the other kinds: the Fresnel cosine from |wo + wi| keeps f(wo, wi) == f(wi, wo).
+    const Vec3f sum = wo + wi;
+    const float len = length(sum);
+    if (!(len > 0.0f)) return 0.0f;
+    const float cos_oh = clampf(0.5f * len, 0.0f, 1.0f);
+    return fresnelDielectric(cos_oh, eta) * microfacetReflection(m.model, alpha, wo, wi, sum / len);
+  }
+  if (!(wi.z < 0.0f)) return 0.0f;
+  Refraction r;
+  if (!refractionOf(wo, wi, eta, r)) return 0.0f;
+  // Numerator and denominator apart: a direction within ~1e-19 of the horizon has G2 = 0 and a
+  // denominator that may be subnormal, and 0 / den stays 0 where (1 / den) * 0 would not.
+  const float num = r.cos_o * r.cos_i * (1.0f - r.fresnel) * ndf(m.model, alpha, r.h) *
+                    smithG2(m.model, alpha, wo, wi);
+  const float den = wo.z * -wi.z * r.len2;
+  return den > 0.0f ? num / den : 0.0f;
+}
+
+inline float glassPdf(const Material& m, Vec3f wo, Vec3f wi) {
+  if (!(wo.z > 0.0f)) return 0.0f;
+  const float eta = glassEta(m.ior);
+  const float alpha = alphaOf(m.roughness);
+  if (wi.z > 0.0f) {
+    const Vec3f sum = wo + wi;
+    const float len = length(sum);
+    if (!(len > 0.0f)) return 0.0f;
+    const float cos_oh = clampf(0.5f * len, 0.0f, 1.0f);
+    return reflectChoice(m, fresnelDielectric(cos_oh, eta)) * microfacetPdf(m.model, alpha, wo, sum / len);
+  }
+  if (!(wi.z < 0.0f)) return 0.0f;
+  Refraction r;
+  if (!refractionOf(wo, wi, eta, r)) return 0.0f;
+  return (1.0f - reflectChoice(m, r.fresnel)) * normalPdf(m.model, alpha, wo, r.h) * (eta * eta) * r.cos_i / r.len2;
+}
+
+// Draws h, then reflects with probability F(wo.h) (or Material::reflect_share) or refracts; returns wi (not yet checked against
+// the pdf). False when the direction ends up on the wrong side of the macro surface.
+inline bool sampleGlassDirection(const Material& m, Vec3f wo, float u0, Vec2f u, Vec3f& wi) {
+  const float eta = glassEta(m.ior);
+  Vec3f h;
+  if (!sampleMicrofacetNormal(m.model, alphaOf(m.roughness), wo, u, h)) return false;
+  const float oh = dot(wo, h);
+  if (!(oh > 0.0f)) return false;
+  if (u0 < reflectChoice(m, fresnelDielectric(oh, eta))) {
+    wi = reflectAbout(wo, h);
+    return wi.z > 0.0f;
+  }
+  // Snell about h: cos^2(theta_t) = 1 - (1 - oh^2) / eta^2 (grouped as in fresnelDielectric), and
+  // wi = -wo / eta + (oh / eta - cos_t) h, a unit vector with wi.h = -cos_t.
+  const float cos_t2 = (oh * oh + (eta - 1.0f) * (eta + 1.0f)) / (eta * eta);
+  if (!(cos_t2 > 0.0f)) return false;  // total internal reflection (F = 1 there, so rounding only)
+  const float cos_t = std::sqrt(cos_t2);
+  wi = normalize(h * (oh / eta - cos_t) - wo / eta);
+  return wi.z < 0.0f;
+}
+
 }  // namespace
 
 BsdfAt::BsdfAt(const Material& m, Vec3f wo) : m_(m), wo_(wo) {
@@ -428,6 +619,7 @@ BsdfAt::BsdfAt(const Material& m, Vec3f wo) : m_(m), wo_(wo) {
 Rgb BsdfAt::eval(Vec3f wi) const {
   const Material& m = m_;
   const Vec3f wo = wo_;
+  if (m.kind == MaterialKind::Glass) return Rgb(glassEval(m, wo, wi));
   if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return Rgb(0.0f);
   if (m.kind == MaterialKind::RoughDiffuse)  // needs no half vector
     return orenNayar(clamp01(m.base_color), m.sigma, wo, wi);
@@ -474,6 +666,7 @@ Rgb BsdfAt::eval(Vec3f wi) const {
       return layer * through + Rgb(spec);
     }
     case MaterialKind::RoughDiffuse:  // returned above
+    case MaterialKind::Glass:
       break;
   }
   return Rgb(0.0f);
@@ -482,6 +675,7 @@ Rgb BsdfAt::eval(Vec3f wi) const {
 float BsdfAt::pdf(Vec3f wi) const {
   const Material& m = m_;
   const Vec3f wo = wo_;
+  if (m.kind == MaterialKind::Glass) return glassPdf(m, wo, wi);
   if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return 0.0f;
   if (m.kind == MaterialKind::RoughDiffuse) return wi.z * kInvPiF;  // cosine-weighted only
   const Vec3f h = normalize(wo + wi);
@@ -509,6 +703,16 @@ float pdfBsdf(const Material& m, Vec3f wo, Vec3f wi) { return BsdfAt(m, wo).pdf(
 
 bool sampleBsdf(const Material& m, Vec3f wo, float u0, Vec2f u, BsdfSample& out) {
   if (!(wo.z > 0.0f)) return false;
+  if (m.kind == MaterialKind::Glass) {
+    Vec3f wi;
+    if (!sampleGlassDirection(m, wo, u0, u, wi)) return false;
+    // f and pdf as BsdfAt gives them for this wi, so that both routes agree to the bit.
+    out.wi = wi;
+    out.pdf = glassPdf(m, wo, wi);
+    if (!(out.pdf > 0.0f) || !std::isfinite(out.pdf)) return false;
+    out.f = Rgb(glassEval(m, wo, wi));
+    return true;
+  }
   const LobeProbs lp = lobeProbs(m, wo);
   // Pick the first lobe whose cumulative probability exceeds u0; rounding leftovers go to the last
   // lobe that can be picked at all.

@@ -29,4 +29,16 @@ struct TriangleMesh {
   void computeMmPerUv();
 };
 
+// Edges used by exactly one triangle (an open sheet has them along its outline; a closed solid
+// has none).
+size_t boundaryEdgeCount(const TriangleMesh& m);
+
+// The rest of a solid whose front is the open sheet `front`: its back, the front moved by
+// thickness_mm against the vertex normals (front.heights, where present, are taken off first, so a
+// cut-in groove does not reach the back), and a rim joining the two along the sheet's outline.
+// Wound so that every normal points out of the solid, no UVs, flat rim, smooth back. Empty when the
+// front is closed. Throws std::invalid_argument for thickness_mm <= 0 or a front with an edge
+// shared by more than two triangles.
+TriangleMesh solidShell(const TriangleMesh& front, float thickness_mm);
+
 }  // namespace dg

@@ -21,26 +21,47 @@ RTCDevice embreeDevice() {
   return device;
 }
 
-PartGeometry::PartGeometry(TriangleMesh mesh) : mesh_(std::move(mesh)) {
-  RTCDevice dev = embreeDevice();
-  scene_ = rtcNewScene(dev);
-  rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+namespace {
+
+// Attaches a triangle mesh to the scene as the next geometry.
+void attachTriangles(RTCDevice dev, RTCScene scene, const TriangleMesh& m) {
   RTCGeometry geom = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-  size_t nv = mesh_.positions.size(), nt = mesh_.triangleCount();
+  size_t nv = m.positions.size(), nt = m.triangleCount();
   auto* vb = static_cast<float*>(
       rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
   for (size_t i = 0; i < nv; ++i) {
-    vb[3 * i] = mesh_.positions[i].x;
-    vb[3 * i + 1] = mesh_.positions[i].y;
-    vb[3 * i + 2] = mesh_.positions[i].z;
+    vb[3 * i] = m.positions[i].x;
+    vb[3 * i + 1] = m.positions[i].y;
+    vb[3 * i + 2] = m.positions[i].z;
   }
   auto* ib = static_cast<unsigned*>(
       rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), nt));
-  for (size_t i = 0; i < 3 * nt; ++i) ib[i] = mesh_.indices[i];
+  for (size_t i = 0; i < 3 * nt; ++i) ib[i] = m.indices[i];
   rtcCommitGeometry(geom);
-  rtcAttachGeometry(scene_, geom);
+  rtcAttachGeometry(scene, geom);
   rtcReleaseGeometry(geom);
+}
+
+}  // namespace
+
+PartGeometry::PartGeometry(TriangleMesh mesh, TriangleMesh shell) : mesh_(std::move(mesh)), shell_(std::move(shell)) {
+  RTCDevice dev = embreeDevice();
+  scene_ = rtcNewScene(dev);
+  rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+  attachTriangles(dev, scene_, mesh_);  // geometry 0
+  if (shell_.triangleCount() > 0) {
+    attachTriangles(dev, scene_, shell_);  // geometry 1 (kShellGeometry)
+    shell_ng_.resize(shell_.triangleCount());
+    for (size_t t = 0; t < shell_ng_.size(); ++t) {
+      const uint32_t* f = &shell_.indices[3 * t];
+      Vec3d n = cross(Vec3d(shell_.positions[f[1]]) - Vec3d(shell_.positions[f[0]]),
+                      Vec3d(shell_.positions[f[2]]) - Vec3d(shell_.positions[f[0]]));
+      double l = length(n);
+      shell_ng_[t] = l > 0 ? Vec3f(n / l) : Vec3f(0, 0, 1);
+    }
+  }
   rtcCommitScene(scene_);
+  size_t nv = mesh_.positions.size(), nt = mesh_.triangleCount();
 
   // Tangent frames from the UV chart (shared/reference/blinn-bump.md §8.1): exact dP/du, dP/dv of
   // the piecewise-linear surface, with a guard for degenerate UV triangles.

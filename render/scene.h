@@ -15,13 +15,19 @@ RTCDevice embreeDevice();  // created on first use, lives for the process
 
 class PartGeometry {
  public:
-  explicit PartGeometry(TriangleMesh mesh);
+  // `shell`, when not empty, closes the part into a solid (solidShell(): the back and the rim of a
+  // glass sheet). It is Embree geometry 1, carries no UVs and so no defects and no paint.
+  explicit PartGeometry(TriangleMesh mesh, TriangleMesh shell = {});
   ~PartGeometry();
   PartGeometry(const PartGeometry&) = delete;
   PartGeometry& operator=(const PartGeometry&) = delete;
 
   RTCScene scene() const { return scene_; }
   const TriangleMesh& mesh() const { return mesh_; }
+  const TriangleMesh& shell() const { return shell_; }
+  static constexpr unsigned kShellGeometry = 1;
+  // Unit geometric normal (from the winding, out of the solid) of shell triangle `prim`.
+  Vec3f shellNormal(unsigned prim) const { return shell_ng_[prim]; }
 
   // Per triangle: the exact derivatives of position with respect to the UV chart (mm per UV mm),
   // the unit geometric normal (from the winding), and whether the UV triangle is usable. For a
@@ -46,7 +52,8 @@ class PartGeometry {
   Vec3f boundingCenter() const { return center_; }
 
  private:
-  TriangleMesh mesh_;
+  TriangleMesh mesh_, shell_;
+  std::vector<Vec3f> shell_ng_;
   RTCScene scene_ = nullptr;
   std::vector<TriFrame> frames_;
   std::vector<double> area_cdf_;

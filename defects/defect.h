@@ -38,6 +38,11 @@ struct DefectQuery {
   float mm_per_uv = 1.0f;  // local chart stretch of the triangle (1 for isometric charts)
   float cavity = 0.0f;     // ambient occlusion of the part at the point, 0 (open) .. 1 (cavity);
                            // computed only when a defect asks for it (needsCavity())
+  // A path vertex past the camera hit while the groove renderer draws scratches: scratches give
+  // the slope of their cross-section at the point (a point sample of the grooves, as
+  // render.scratches: normal_map does everywhere), so that a ray meeting the surface again, a ray
+  // leaving a glass part through a scratch for instance, sees the scratch's facets.
+  bool point_grooves = false;
   // The footprint's largest extent in UV mm (for filtering procedural detail).
   float footprint() const {
     return std::max(std::max(std::fabs(duv_dx.x), std::fabs(duv_dx.y)),

@@ -777,7 +777,7 @@ float Scratch::height(Vec2f p) const {
 }
 
 void Scratch::shade(const DefectQuery& qy, DefectShading& out) const {
-  if (!bump_shading_ || !(ref_.width() > 0) || !(max_scale_ > 0)) return;
+  if (!(bump_shading_ || qy.point_grooves) || !(ref_.width() > 0) || !(max_scale_ > 0)) return;
   PathPoint q = path_.closest(qy.uv, float(ref_.halfExtent()) * max_scale_);
   if (!q.found || q.beyond > 0) return;
   float k = scaleAt(q.s);

@@ -179,6 +179,18 @@ Field buildSchema() {
                              num("roughness", "", 0.4, 0.02, 1, "Surface roughness."),
                              num("ior", "", 1.5, 1.0, 3.0, "Index of refraction.", true, true), micro};
   mat.variant_docs["plastic"] = "Dielectric gloss over a diffuse base.";
+  mat.variants["glass"] = {
+      num("ior", "", 1.5, 1.0, 3.0, "Index of refraction (glass 1.5, polycarbonate 1.59, PMMA 1.49).", true, true),
+      num("roughness", "", 0.02, 0.02, 1, "Surface roughness (0.02 = polished, as a mirror to the path tracer)."),
+      num("thickness_mm", "mm", 4, 0, 1000,
+          "Thickness of the solid made from an open part surface (its back is the surface moved "
+          "this far against its normals, joined by a rim); a closed mesh is a solid already and "
+          "ignores it. Not a distribution: every sample shares the part.",
+          false, true),
+      micro};
+  mat.variant_docs["glass"] =
+      "Clear solid dielectric (a lamp lens, a window): rough-dielectric reflection and refraction "
+      "(Walter et al. 2007) at every surface of the solid; scratches refract light into it.";
   root.fields.push_back(mat);
 
   // lights

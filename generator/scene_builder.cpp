@@ -51,6 +51,19 @@ TriangleMesh buildPart(const Config& c) {
   return loadMesh(p["path"].str(), o);
 }
 
+// A glass part made from an open surface is closed into a solid (solidShell); every other part
+// is rendered as the two-sided sheet it is.
+TriangleMesh partShell(const Config& c, const TriangleMesh& front) {
+  const Value& mv = c.root["material"];
+  if (mv["type"].str() != "glass") return {};
+  try {
+    return solidShell(front, float(mv["thickness_mm"].num()));
+  } catch (const std::invalid_argument& e) {
+    throw InputError(c.file, mv["thickness_mm"].line, mv["thickness_mm"].column,
+                     "'material.thickness_mm': cannot make the glass part a solid: " + std::string(e.what()));
+  }
+}
+
 Vec3d sampleVec3(const Value& v, Rng& rng, json& rec) {
   return {sampleNumber(v.items[0], rng, rec), sampleNumber(v.items[1], rng, rec), sampleNumber(v.items[2], rng, rec)};
 }
@@ -73,7 +86,9 @@ void planeAxes(Vec3f n, Vec3f& u, Vec3f& v) {
 
 Dataset prepareDataset(Config config) {
   Dataset ds;
-  auto part = std::make_shared<PartGeometry>(buildPart(config));
+  TriangleMesh front = buildPart(config);
+  ds.shell = partShell(config, front);
+  auto part = std::make_shared<PartGeometry>(std::move(front), ds.shell);
   // Occlusion is computed once, and only when a patina group is drawn to cavities.
   bool cavities = false;
   for (const Value& d : config.root["defects"].items)
@@ -231,6 +246,12 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
     m.roughness = float(sampleNumber(mv["roughness"], rng, rec));
     mj.update({{"metal", name}, {"eta", toJson(m.eta)}, {"k", toJson(m.k)}, {"roughness", m.roughness},
                {"ior_source", ior->source}});
+  } else if (mt == "glass") {
+    m.kind = MaterialKind::Glass;
+    m.roughness = float(sampleNumber(mv["roughness"], rng, rec));
+    m.ior = float(sampleNumber(mv["ior"], rng, rec));
+    mj.update({{"roughness", m.roughness}, {"ior", m.ior}, {"thickness_mm", mv["thickness_mm"].num()},
+               {"solid", ds.part->shell().triangleCount() > 0 ? "made from the open surface" : "the closed mesh"}});
   } else {
     m.kind = MaterialKind::Plastic;
     m.base_color = sampleRgb(mv["base_color"], rng, rec);
@@ -618,7 +639,7 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
     opt.max_edge_mm = displace_edge;
     DisplacementStats st;
     try {
-      s.scene.part = std::make_shared<PartGeometry>(displaceMesh(ds.part->mesh(), displaced, opt, &st));
+      s.scene.part = std::make_shared<PartGeometry>(displaceMesh(ds.part->mesh(), displaced, opt, &st), ds.shell);
     } catch (const std::runtime_error& e) {
       throw InputError(c.file, groups.line, groups.column,
                        "'defects': cannot displace the part for sample " + std::to_string(index) + ": " + e.what() +
@@ -647,7 +668,7 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
                        "'defects': render.scratches: geometry cannot be combined with displaced dents");
     try {
       ScratchGeometryStats st;
-      s.scene.part = std::make_shared<PartGeometry>(scratchedMesh(ds.part->mesh(), scratches, {}, &st));
+      s.scene.part = std::make_shared<PartGeometry>(scratchedMesh(ds.part->mesh(), scratches, {}, &st), ds.shell);
       meta["scratches"]["triangles"] = st.triangles;
       meta["scratches"]["cell_mm"] = st.cell_mm;
       meta["scratches"]["part_triangles_cut"] = st.part_triangles_cut;

@@ -31,6 +31,7 @@ struct Hit {
   float t = kInf;
   unsigned prim = 0;
   float b1 = 0, b2 = 0;  // barycentrics of vertices 1 and 2
+  bool shell = false;    // on the solid's back or rim (PartGeometry::shell), not the part's mesh
 };
 
 Hit intersect(RTCScene scene, Vec3f o, Vec3f d, float tnear, float tfar) {
@@ -59,6 +60,7 @@ Hit intersect(RTCScene scene, Vec3f o, Vec3f d, float tnear, float tfar) {
     h.prim = rh.hit.primID;
     h.b1 = rh.hit.u;
     h.b2 = rh.hit.v;
+    h.shell = rh.hit.geomID == PartGeometry::kShellGeometry;
   }
   return h;
 }
@@ -161,6 +163,8 @@ struct SurfacePoint {
   float mm_per_uv;
   Vec3f dpdx, dpdy;
   Vec2f duvdx, duvdy;
+  bool outside = true;  // the ray arrived from the side the surface's outward normal faces
+  bool shell = false;   // the solid's back or rim: no UVs, no defects, no paint
 };
 
 // Offset for spawning rays off the surface, scaled with the magnitude of the coordinates.
@@ -190,6 +194,7 @@ class Tracer {
 
   SurfacePoint surface(const Hit& h, const DiffRay& r, bool need_footprint) const {
     SurfacePoint sp;
+    if (h.shell) return shellSurface(h, r);
     const uint32_t* f = &mesh_.indices[3 * h.prim];
     float b0 = 1 - h.b1 - h.b2;
     sp.p = r.o + r.d * h.t;
@@ -210,6 +215,7 @@ class Tracer {
     if (dot(sp.ng, r.d) > 0) {
       sp.ng = -sp.ng;
       sp.ns = -sp.ns;
+      sp.outside = false;
     }
     if (dot(sp.ns, sp.ng) <= 0) sp.ns = sp.ng;
     if (need_footprint) {
@@ -235,17 +241,62 @@ class Tracer {
     return sp;
   }
 
+  // A hit on the solid's back or rim: smooth-shaded (back) or flat (rim), no chart.
+  SurfacePoint shellSurface(const Hit& h, const DiffRay& r) const {
+    SurfacePoint sp;
+    const TriangleMesh& m = s_.part->shell();
+    const uint32_t* f = &m.indices[3 * h.prim];
+    float b0 = 1 - h.b1 - h.b2;
+    sp.shell = true;
+    sp.p = r.o + r.d * h.t;
+    sp.ng = s_.part->shellNormal(h.prim);
+    sp.ns = normalize(m.normals[f[0]] * b0 + m.normals[f[1]] * h.b1 + m.normals[f[2]] * h.b2);
+    sp.uv = Vec2f(0.0f, 0.0f);
+    sp.uv_ok = false;
+    sp.mm_per_uv = 1.0f;
+    Frame on = Frame::fromNormal(sp.ng);
+    sp.dpdu = on.t;
+    sp.dpdv = on.b;
+    if (dot(sp.ng, r.d) > 0) {
+      sp.ng = -sp.ng;
+      sp.ns = -sp.ns;
+      sp.outside = false;
+    }
+    if (dot(sp.ns, sp.ng) <= 0) sp.ns = sp.ng;
+    sp.dpdx = sp.dpdy = Vec3f(0.0f);
+    sp.duvdx = sp.duvdy = Vec2f(0.0f, 0.0f);
+    return sp;
+  }
+
+  // A sampled direction is usable when the shading and the geometric normal agree on its side:
+  // above both (reflection) or, through glass, below both (transmission).
+  static bool sameSide(Vec3f wi_local, Vec3f wi_w, Vec3f ng) {
+    const float g = dot(wi_w, ng);
+    return wi_local.z > 0 ? g > 0 : (wi_local.z < 0 && g < 0);
+  }
+
+  // A glass part's interface seen from the ray's side: the relative index of the far side over
+  // the near one (Material::ior holds the glass's own index against air).
+  static Material facing(const Material& m, bool outside) {
+    if (m.kind != MaterialKind::Glass || outside) return m;
+    Material g = m;
+    g.ior = 1.0f / m.ior;
+    return g;
+  }
+
   // Applies the defects at a surface point: their height gradients perturb the shading normal
   // (Blinn 1978 in surface-gradient form: n' = normalize(n - grad_s F), shared/reference/
   // blinn-bump.md §3b and §8.3), and weathering may replace the surface's look (returned cover and
   // appearance).
   // `extra_grad` is a height gradient from the surface itself (the clear coat's orange peel).
-  DefectShading applyDefects(SurfacePoint& sp, Vec3f wo_world, const Hit& h, Vec2f extra_grad = {0, 0}) const {
+  DefectShading applyDefects(SurfacePoint& sp, Vec3f wo_world, const Hit& h, Vec2f extra_grad = {0, 0},
+                             bool point_grooves = false) const {
     DefectShading ds;
     if (!sp.uv_ok) return ds;
     ds.height_grad = extra_grad;
     if (has_defects_) {
       DefectQuery q;
+      q.point_grooves = point_grooves;
       q.uv = sp.uv;
       q.duv_dx = sp.duvdx;
       q.duv_dy = sp.duvdy;
@@ -258,10 +309,11 @@ class Tracer {
     float n2 = dot(N, N);
     Vec3f pu = cross(sp.dpdv, N) / n2, pv = cross(N, sp.dpdu) / n2;  // dual basis
     Vec3f grad = pu * ds.height_grad.x + pv * ds.height_grad.y;
-    // The height is measured along the outward shading normal; a ray from behind sees the sheet's
-    // back, where the same displacement reads as the opposite (digest §8.3).
+    // The height is measured along the outward normal. A ray from behind (the back of a sheet, the
+    // inside of a glass part) sees the same surface turned over: with the normal flipped, the
+    // height is negated too (digest §8.3), so a dent seen from behind reads as a bump.
     grad = grad - sp.ns * dot(grad, sp.ns);
-    Vec3f n = normalize(sp.ns - grad);
+    Vec3f n = normalize(sp.outside ? sp.ns - grad : sp.ns + grad);
     // Keep the perturbed normal in the hemisphere of the viewer (digest §8.3, hemisphere safety).
     float c = dot(n, wo_world);
     if (c < 0.02f) n = normalize(n + wo_world * (0.02f - c));
@@ -340,6 +392,13 @@ class Tracer {
                    uint64_t& nrays, float prev_nl, float prev_share = 1.0f) const {
     Rgb L(0.0f);
     RTCScene scene = s_.part->scene();
+    // Russian roulette looks at the throughput relative to the one this path started with (so a
+    // path split into n does not lose its 1/n share to the roulette, which would undo the split)
+    // and without the radiance scaling of refraction (eta_scale undoes the 1/eta^2 on entering
+    // glass and the eta^2 on leaving it): else a path inside glass would be killed often and its
+    // survivors, leaving the glass, would come out as fireflies.
+    const float rr_ref = maxComponent(beta);
+    float eta_scale = 1.0f;
     for (int depth = depth0;; ++depth) {
       Hit h = intersect(scene, ray.o, ray.d, 0.0f, kInf);
       ++nrays;
@@ -375,7 +434,11 @@ class Tracer {
       if (depth >= st_.max_bounces) break;
       SurfacePoint sp = surface(h, ray, has_defects_ || has_paint_);
       Vec3f wo_w = -ray.d;
-      Material m = s_.material;
+      Material m = facing(s_.material, sp.outside);
+      // Seen by the camera, glass draws reflection at least a quarter of the time
+      // (Material::reflect_share). Deeper, the Fresnel choice: on a light table the paths through
+      // both faces of a lens carry the image, and a fixed share there made it visibly noisier.
+      if (depth == 0 && m.kind == MaterialKind::Glass) m.reflect_share = 0.25f;
       Vec2f peel(0.0f, 0.0f);
       if (has_paint_ && sp.uv_ok) {
         PaintSample ps = s_.paint->evaluate(sp.uv, footprintOf(sp), rng.uniform());
@@ -403,11 +466,12 @@ class Tracer {
       // The scratch reference's cut mesh: a hit inside a scratch (moved off the part's surface)
       // shows the coating layer at its depth, and the cut has no orange peel, as the groove
       // renderer's facets (facetMaterial; they are shaded before the peel is applied).
-      if (const float z = cutHeight(h); z != 0.0f) {
+      if (const float z = h.shell ? 0.0f : cutHeight(h); z != 0.0f) {
         peel = Vec2f(0.0f, 0.0f);
         m = layerAt(z, m);
       }
-      DefectShading ds = applyDefects(sp, wo_w, h, peel);
+      // Past the camera hit the groove renderer's scratches are point-sampled (DefectQuery).
+      DefectShading ds = applyDefects(sp, wo_w, h, peel, depth > 0 && grooves_);
       Frame fr = Frame::fromNormalTangent(sp.ns, sp.dpdu);
       Vec3f wo = fr.toLocal(wo_w);
       if (wo.z <= 0) break;
@@ -455,13 +519,21 @@ class Tracer {
         }
 
       // Auxiliary rays follow the mirror transfer about the shading normal (the surface's
-      // curvature is neglected); after a rough bounce this underestimates the footprint.
+      // curvature is neglected); after a rough bounce this underestimates the footprint. Through
+      // glass (a direction below the surface) they keep their directions: the refraction's own
+      // spread of the footprint is neglected too.
       auto nextRay = [&](Vec3f d) {
         DiffRay nr;
-        nr.o = origin;
         nr.d = d;
         nr.dodx = sp.dpdx;
         nr.dody = sp.dpdy;
+        if (dot(d, sp.ng) < 0) {
+          nr.o = sp.p - sp.ng * eps;
+          nr.dddx = ray.dddx;
+          nr.dddy = ray.dddy;
+          return nr;
+        }
+        nr.o = origin;
         Vec3f rx = reflect(ray.d + ray.dddx, sp.ns), ry = reflect(ray.d + ray.dddy, sp.ns);
         Vec3f r0 = reflect(ray.d, sp.ns);
         nr.dddx = rx - r0;
@@ -480,12 +552,14 @@ class Tracer {
           float ul = std::min((float(j) + rng.uniform()) * inv, kOneMinusEps);
           float ux = lhs.at(0, j, rng);
           Vec2f ud{ux, lhs.at(1, j, rng)};
-          if (!sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) continue;
+          if (!sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0)) continue;
           Vec3f wi_w = fr.toWorld(bs.wi);
-          if (dot(wi_w, sp.ng) <= 0) continue;
-          Rgb b = beta * bs.f * (bs.wi.z / (bs.pdf * float(n)));
+          if (!sameSide(bs.wi, wi_w, sp.ng)) continue;
+          Rgb b = beta * bs.f * (std::fabs(bs.wi.z) / (bs.pdf * float(n)));
           if (!isFinite(b) || maxComponent(b) <= 0) continue;
-          L += continuePath(nextRay(wi_w), b, float(n) * bs.pdf, false, origin, depth + 1, rng, nrays, float(nl));
+          // Light samples never go through the surface, so a transmitted direction meets its
+          // emitter with MIS weight 1 (as a specular one).
+          L += continuePath(nextRay(wi_w), b, float(n) * bs.pdf, bs.wi.z < 0, origin, depth + 1, rng, nrays, float(nl));
         }
         break;
       }
@@ -494,19 +568,20 @@ class Tracer {
       BsdfSample bs;
       float ul = rng.uniform();
       Vec2f ud{rng.uniform(), rng.uniform()};
-      if (!sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) break;
+      if (!sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0)) break;
       Vec3f wi_w = fr.toWorld(bs.wi);
-      if (dot(wi_w, sp.ng) <= 0) break;  // below the geometric surface
-      beta *= bs.f * (bs.wi.z / bs.pdf);
+      if (!sameSide(bs.wi, wi_w, sp.ng)) break;
+      beta *= bs.f * (std::fabs(bs.wi.z) / bs.pdf);
       if (!isFinite(beta) || maxComponent(beta) <= 0) break;
       prev_pdf = bs.pdf;
-      prev_specular = false;
+      prev_specular = bs.wi.z < 0;  // transmitted: no light sample covers it (see above)
+      if (bs.wi.z < 0) eta_scale *= m.ior * m.ior;
       prev_nl = float(nl);
       prev_p = origin;
       ray = nextRay(wi_w);
       // Russian roulette after three bounces; the survival test uses the path's own random stream.
-      if (depth >= 3) {
-        float q = std::max(0.05f, 1.0f - maxComponent(beta));
+      if (depth >= 3 && rr_ref > 0) {
+        float q = std::max(0.05f, 1.0f - maxComponent(beta) * eta_scale / rr_ref);
         if (rng.uniform() < q) break;
         beta = beta / (1.0f - q);
       }
@@ -579,7 +654,7 @@ class Tracer {
   }
 
   // Only the outer side of the part carries grooves (seen from behind, the sheet is unscratched).
-  bool outerSide(const Hit& h, Vec3f wo_w) const { return dot(s_.part->frame(h.prim).ng, wo_w) > 0; }
+  bool outerSide(const Hit& h, Vec3f wo_w) const { return !h.shell && dot(s_.part->frame(h.prim).ng, wo_w) > 0; }
 
   // tan of the angle between the view and the normal, capped (grazing views, Bosch §4.2.1).
   static float viewTan(const SurfacePoint& sp, Vec3f wo_w) {
@@ -828,6 +903,10 @@ class Tracer {
   // Where rays from a footprint's grooves start for the rest of the scene: above the highest
   // pile-up at the footprint centre.
   Vec3f aboveGrooves(const GrooveSet& gs) const { return gs.F + gs.W * (max_height_ + rayEpsilon(gs.F)); }
+  // And where rays refracted into a glass part start: just inside the part's surface at the
+  // footprint centre. A refracted ray goes down into the solid; the facets of the groove are not
+  // met again from inside (that would take a ray running shallower than the groove's walls).
+  Vec3f insideGrooves(const GrooveSet& gs) const { return gs.F - gs.W * rayEpsilon(gs.F); }
 
   // One light sample shared by every facet of the footprint.
   struct LightSample {
@@ -914,7 +993,8 @@ class Tracer {
     const typename Geometry::Portion* p = nullptr;
     Vec3f d;          // world direction
     float pdf = 0;    // its BSDF pdf (solid angle)
-    Rgb ratio;        // f cos / pdf
+    Rgb ratio;        // f |cos| / pdf
+    bool through = false;  // refracted into the part (glass): sc stays empty
     typename Geometry::Scatter sc;
   };
   // Direction j of n drawn from a footprint's portions: the portion by weight (stratum j of the
@@ -932,12 +1012,14 @@ class Tracer {
     BsdfSample bs;
     float ul = lhs.at(0, j, rng);
     Vec2f ud{lhs.at(1, j, rng), lhs.at(2, j, rng)};
-    if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z <= 0) return false;
+    if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z == 0) return false;
     out.p = &p;
     out.d = fr.toWorld(bs.wi);
     out.pdf = bs.pdf;
-    out.ratio = bs.f * (bs.wi.z / bs.pdf);
+    out.ratio = bs.f * (std::fabs(bs.wi.z) / bs.pdf);
     if (!isFinite(out.ratio) || maxComponent(out.ratio) <= 0) return false;
+    out.through = bs.wi.z < 0;
+    if (out.through) return dot(out.d, geo.gs.W) < 0;  // into the part, below the base plane
     out.sc = geo.scatter(p, out.d);
     return true;
   }
@@ -1011,6 +1093,19 @@ class Tracer {
       const Vec3f d = dr.d;
       const auto& sc = dr.sc;
       Rgb beta_next = beta * dr.ratio * float(wsum / (p.weight * nb));
+      if (dr.through) {
+        // Refracted into glass (Bosch §4.3, E_t): an ordinary ray on from inside the part. No
+        // light sample covers it (they stay above the surface), so its emitter counts in full.
+        if (direct_only) continue;
+        DiffRay r;
+        r.o = insideGrooves(gs);
+        r.d = d;
+        r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
+        // The whole portion refracts this way (its weight, as the escaped share's).
+        L += continuePath(r, beta_next * float(p.weight), float(nbm * p.weight / wsum) * dr.pdf, true, r.o, 1 + level,
+                          rng, nrays, nl_eff);
+        continue;
+      }
       if (direct_only) {
         if (sc.escaped > 0 && dot(d, gs.W) > 0)
           L += beta_next * float(sc.escaped * direct_scale) *
@@ -1059,6 +1154,7 @@ class Tracer {
       const auto& p = *dr.p;
       const Vec3f d = dr.d;
       const auto& sc = dr.sc;
+      if (dr.through) continue;  // refracted: estimated by the continued directions alone
       Rgb beta_k = beta * dr.ratio * float(wsum / (p.weight * nm));
       const float share = float(nm) / nbm;
       if (sc.escaped > 0 && dot(d, gs.W) > 0)
@@ -1228,6 +1324,7 @@ DiffRay cameraRay(const RayGenerator& gen, float px, float py) {
 
 std::vector<Material> layerMaterials(const Material& part, const LayerStack& stack) {
   std::vector<Material> out;
+  if (part.kind == MaterialKind::Glass) return {part};  // a scratch in glass cuts only glass
   for (size_t i = 0; i < stack.layers.size(); ++i) {
     if (i == 0) {
       out.push_back(part);
@@ -1353,7 +1450,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
               DiffRay r = cameraRay(gen, px, py);
               Hit h = intersect(scene.part->scene(), r.o, r.d, 0.0f, kInf);
               ++local_rays;
-              if (!h.hit) continue;
+              if (!h.hit || h.shell) continue;
               const uint32_t* f = &scene.part->mesh().indices[3 * h.prim];
               const auto& uvs = scene.part->mesh().uvs;
               if (uvs.empty()) continue;

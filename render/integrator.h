@@ -40,7 +40,8 @@ struct RenderScene {
 
 // The materials a scratch exposes, per layer: the part's own material for layer 0; for car paint
 // the base coat (rough diffuse in the base colour), the primer (rough diffuse grey) and bare steel
-// (exact conductor Fresnel, roughness 0.3) below it.
+// (exact conductor Fresnel, roughness 0.3) below it. A glass part has one layer: a scratch in glass
+// cuts only glass.
 std::vector<Material> layerMaterials(const Material& part, const LayerStack& stack);
 
 struct RenderSettings {

@@ -88,6 +88,17 @@ LAYOUTS = {
 }
 
 LIGHTS = {
+    # Bright field through a glass part: a 12 x 12 mm panel 50 mm below the plate, facing up, which
+    # the flat glass shows whole; a groove's facets refract the view off it.
+    "backlight": """
+  - type: rect
+    position: [0, 0, -50]
+    target: [0, 0, 0]
+    size_mm: [12, 12]
+    radiance: [0.8, 0.8, 0.8]
+  - type: dome
+    radiance: [0.04, 0.04, 0.04]
+""",
     "ring": """
   - type: ring
     radius_mm: 30
@@ -158,6 +169,8 @@ MATERIALS = {
     "aluminium": "{type: metal, metal: aluminium, roughness: %g}",
     # Red car paint over the default coat stack: a scratch through the clear coat shows the base
     # coat, then the grey primer.
+    # A polycarbonate lamp lens, 3 mm thick, polished.
+    "glass": "{type: glass, ior: 1.59, roughness: 0.02, thickness_mm: 3}",
     "paint": "{type: car_paint, base_color: [0.5, 0.04, 0.03], flake_amount: 0, flake_density: 0, sparkle: 0, "
              "clear_coat_roughness: 0.05}",
 }

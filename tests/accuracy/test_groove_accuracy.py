@@ -87,6 +87,22 @@ class GrooveAccuracy(unittest.TestCase):
         pixels >= 10)."""
         self.check("layers", "bar", material="paint", fov_deg=2)
 
+    def test_glass_parallel_backlight(self):
+        """A polycarbonate lens (groove_scenes.MATERIALS["glass"], a 3 mm solid) over a back light
+        (bright field): the flat glass shows the light, a groove's facets refract the view off it
+        (Bosch §4.3, E_t). The groove renderer sends each portion's refracted share through the
+        solid as ordinary rays; the reference refracts at its cut facets."""
+        self.check("parallel", "backlight", material="glass")
+
+    def test_glass_crossing_backlight(self):
+        """The same through crossings (polygons, walls included)."""
+        self.check("crossing", "backlight", material="glass")
+
+    def test_glass_ends_ring(self):
+        """Scratch ends on the lens under the ring light: what the grooves reflect of the ring over
+        the dark glass, and what they refract of the dome below."""
+        self.check("ends", "ring", material="glass")
+
     def test_star_past_the_polygon_caps(self):
         """Twelve grooves through one spot: footprints with more than eight grooves fall back to
         the blend of directions (docs/grooves.md). Not one of the issue's target scenes; the bounds

@@ -234,6 +234,13 @@ class BadInput(unittest.TestCase):
                 "  width_mm: 300\n  height_mm: 200\n", ""), ["file not found", "nowhere.obj"]),
             ("rust_without_scratch", base + "  - type: rust\n    origin: {choice: [pit, scratch]}\n",
              ["bad.yaml:33:13", "origin 'scratch' needs a group of type scratch"]),
+            ("glass_without_thickness", base.replace(
+                "type: car_paint\n  base_color: [{uniform: [0.1, 0.8]}, 0.2, 0.1]", "type: glass\n  thickness_mm: 0"),
+             ["bad.yaml:9:17", "out of range"]),
+            ("glass_random_thickness", base.replace(
+                "type: car_paint\n  base_color: [{uniform: [0.1, 0.8]}, 0.2, 0.1]",
+                "type: glass\n  thickness_mm: {uniform: [2, 4]}"),
+             ["bad.yaml:9:17", "distribution"]),
         ]
         for name, text, frags in cases:
             with self.subTest(name):

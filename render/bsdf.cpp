@@ -545,17 +545,26 @@ inline bool refractionOf(Vec3f wo, Vec3f wi, float eta, Refraction& r) {
   return true;
 }
 
+// The half vector of a reflected pair and wo.h. As for the other kinds, the cosine comes from
+// |wo + wi| (= 2 wo.h), which keeps f(wo, wi) == f(wi, wo).
+inline bool reflectionHalf(Vec3f wo, Vec3f wi, Vec3f& h, float& cos_oh) {
+  const Vec3f sum = wo + wi;
+  const float len = length(sum);
+  if (!(len > 0.0f)) return false;
+  h = sum / len;
+  cos_oh = clampf(0.5f * len, 0.0f, 1.0f);
+  return true;
+}
+
 inline float glassEval(const Material& m, Vec3f wo, Vec3f wi) {
   if (!(wo.z > 0.0f)) return 0.0f;
   const float eta = glassEta(m.ior);
   const float alpha = alphaOf(m.roughness);
   if (wi.z > 0.0f) {
-    // As for the other kinds: the Fresnel cosine from |wo + wi| keeps f(wo, wi) == f(wi, wo).
-    const Vec3f sum = wo + wi;
-    const float len = length(sum);
-    if (!(len > 0.0f)) return 0.0f;
-    const float cos_oh = clampf(0.5f * len, 0.0f, 1.0f);
-    return fresnelDielectric(cos_oh, eta) * microfacetReflection(m.model, alpha, wo, wi, sum / len);
+    Vec3f h;
+    float cos_oh;
+    if (!reflectionHalf(wo, wi, h, cos_oh)) return 0.0f;
+    return fresnelDielectric(cos_oh, eta) * microfacetReflection(m.model, alpha, wo, wi, h);
   }
   if (!(wi.z < 0.0f)) return 0.0f;
   Refraction r;
@@ -573,11 +582,10 @@ inline float glassPdf(const Material& m, Vec3f wo, Vec3f wi) {
   const float eta = glassEta(m.ior);
   const float alpha = alphaOf(m.roughness);
   if (wi.z > 0.0f) {
-    const Vec3f sum = wo + wi;
-    const float len = length(sum);
-    if (!(len > 0.0f)) return 0.0f;
-    const float cos_oh = clampf(0.5f * len, 0.0f, 1.0f);
-    return reflectChoice(m, fresnelDielectric(cos_oh, eta)) * microfacetPdf(m.model, alpha, wo, sum / len);
+    Vec3f h;
+    float cos_oh;
+    if (!reflectionHalf(wo, wi, h, cos_oh)) return 0.0f;
+    return reflectChoice(m, fresnelDielectric(cos_oh, eta)) * microfacetPdf(m.model, alpha, wo, h);
   }
   if (!(wi.z < 0.0f)) return 0.0f;
   Refraction r;

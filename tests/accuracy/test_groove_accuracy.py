@@ -98,6 +98,12 @@ class GrooveAccuracy(unittest.TestCase):
         """The same through crossings (polygons, walls included)."""
         self.check("crossing", "backlight", material="glass")
 
+    def test_glass_crossing_backlight_bowed(self):
+        """The lens bowed (groove_scenes.PARTS["bowed"], its back made from the curved surface):
+        seen through the tilted glass the panel is out of view (dark field), and the scratches'
+        facets refract it into view."""
+        self.check("crossing", "backlight", "bowed", material="glass")
+
     def test_glass_ends_ring(self):
         """Scratch ends on the lens under the ring light: what the grooves reflect of the ring over
         the dark glass, and what they refract of the dome below."""

@@ -2,7 +2,9 @@
 """Issue 5 accuracy: the groove renderer at 4 samples per pixel against the explicit-geometry
 reference (the same scratches cut into the re-meshed part, rendered by the same path tracer at
 REF_SPP samples per pixel), on three scratch layouts under a ring light and a low-angle bar light,
-and the crossing layout on a curved part under both, measured with `defectgen compare` (S-CIELAB, Delta E 1976, 40 samples per degree).
+the crossing layout on a curved part under both, a layered car paint under both, and a glass lens
+(three layouts, one of them bowed) under a back light or the ring, measured with `defectgen
+compare` (S-CIELAB, Delta E 1976, 40 samples per degree).
 
 Target (Bosch 2007 reports 0.32% and 0%): fewer than 0.5% of pixels with Delta E >= 10, and a mean
 Delta E below 1, asserted on every case. Each case prints its mean Delta E and share >= 10. The

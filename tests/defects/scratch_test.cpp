@@ -507,6 +507,31 @@ TEST(ScratchDefect, MaskAreaOfStraightScratch) {
   EXPECT_NEAR(j["depth_mm"].get<double>(), 0.03, 1e-6);
 }
 
+// Through the bump interface a scratch adds its facet's slope only when asked: in normal-map mode,
+// or for a path vertex past the camera hit (DefectQuery::point_grooves; the groove renderer
+// integrates camera footprints itself).
+TEST(ScratchDefect, SlopeThroughTheBumpInterfaceOnlyWhenAsked) {
+  Profile pr = Profile::fromPolyline({{-0.2, 0}, {-0.1, 0.01}, {0, -0.03}, {0.1, 0.01}, {0.2, 0}});
+  Scratch sc = Scratch::fromProfile(ScratchPath::polyline({{10, 10}, {40, 10}}), pr);
+  auto grad = [&](Vec2f uv, bool point) {
+    DefectQuery q;
+    q.uv = uv;
+    q.point_grooves = point;
+    DefectShading ds;
+    sc.shade(q, ds);
+    return ds.height_grad;
+  };
+  // b = v - 10 (the path's left is +v); at b = -0.05 the facet from (-0.1, 0.01) to (0, -0.03)
+  // falls 0.4 mm per mm.
+  EXPECT_EQ(grad({25, 9.95f}, false).y, 0.0f);
+  EXPECT_NEAR(grad({25, 9.95f}, true).x, 0.0f, 1e-6f);
+  EXPECT_NEAR(grad({25, 9.95f}, true).y, -0.4f, 1e-4f);
+  EXPECT_NEAR(grad({25, 10.05f}, true).y, 0.4f, 1e-4f);  // the other wall rises
+  EXPECT_EQ(grad({25, 10.3f}, true).y, 0.0f);            // beside the scratch
+  sc.setBumpShading(true);
+  EXPECT_NEAR(grad({25, 9.95f}, false).y, -0.4f, 1e-4f);
+}
+
 TEST(ScratchDefect, MaskAreaOfArcAndProcessAttributes) {
   ScratchPath arc = arcScratch({50, 50}, 20, 0.3, 0.05);  // radius 20, sweep 1 rad
   LayerStack paint{{{"clear", 0.02}, {"base", 0.015}, {"primer", 0.01}, {"steel", 0}}};

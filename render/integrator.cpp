@@ -436,9 +436,13 @@ class Tracer {
       Vec3f wo_w = -ray.d;
       Material m = facing(s_.material, sp.outside);
       // Seen by the camera, glass draws reflection at least a quarter of the time
-      // (Material::reflect_share). Deeper, the Fresnel choice: on a light table the paths through
-      // both faces of a lens carry the image, and a fixed share there made it visibly noisier.
+      // (Material::reflect_share). At the next vertex on glass (mostly the lens's back face, from
+      // inside) the path splits in two, one reflection and one refraction: both the image through
+      // the lens and the ghost of a light off its back face then converge without the Fresnel
+      // choice's noise (docs/grooves.md, "Glass"). Deeper, the Fresnel choice.
       if (depth == 0 && m.kind == MaterialKind::Glass) m.reflect_share = 0.25f;
+      const bool glass_split = depth == 1 && m.kind == MaterialKind::Glass;
+      if (glass_split) m.reflect_share = 0.5f;
       Vec2f peel(0.0f, 0.0f);
       if (has_paint_ && sp.uv_ok) {
         PaintSample ps = s_.paint->evaluate(sp.uv, footprintOf(sp), rng.uniform());
@@ -484,8 +488,10 @@ class Tracer {
       // against the BSDF's sampling.
       const int nl = (depth == 0 && grooves_) ? st_.groove_light_samples : 1;
       // With groove shading on, camera hits also split into ns BSDF directions (below): glossy
-      // surfaces lit by a wide light (a dome) are found mostly by BSDF sampling.
-      const int ns = (depth == 0 && grooves_)
+      // surfaces lit by a wide light (a dome) are found mostly by BSDF sampling. A glass vertex
+      // past the camera hit splits in two (above).
+      const int ns = glass_split ? 2
+                     : (depth == 0 && grooves_)
                          ? std::clamp(st_.camera_hit_bsdf_per_pixel / std::max(1, st_.spp), 1, st_.camera_hit_bsdf_samples)
                          : 1;
       const BsdfAt bsdf(m, wo);

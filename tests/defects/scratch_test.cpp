@@ -693,7 +693,9 @@ TEST(ScratchDefect, ExposedRunsFollowTheFadeLaw) {
   ASSERT_GT(runs.size(), 1u);
   for (size_t i = 0; i < runs.size(); ++i) {
     EXPECT_LT(runs[i].first, runs[i].second);
-    if (i > 0) EXPECT_GT(runs[i].first, runs[i - 1].second);
+    if (i > 0) {
+      EXPECT_GT(runs[i].first, runs[i - 1].second);
+    }
     // Inside a run the groove is deeper than the coating, just outside it shallower.
     double mid = 0.5 * (runs[i].first + runs[i].second);
     EXPECT_GT(w.scaleAt(float(mid)) * 0.09, 0.085 - 1e-6) << "run " << i;

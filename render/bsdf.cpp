@@ -545,8 +545,10 @@ inline bool refractionOf(Vec3f wo, Vec3f wi, float eta, Refraction& r) {
   return true;
 }
 
-// The half vector of a reflected pair and wo.h. As for the other kinds, the cosine comes from
-// |wo + wi| (= 2 wo.h), which keeps f(wo, wi) == f(wi, wo).
+// The half vector of a reflected pair and wo.h. |wo + wi| = 2 cos(theta_h) with wo.h = wi.h =
+// cos(theta_h); taking the Fresnel cosine from the length instead of from dot(wo, h) keeps f(wo, wi)
+// and f(wi, wo) bitwise equal (the two dot products differ by rounding, which matters for Fresnel
+// near grazing). Every reflection lobe uses it.
 inline bool reflectionHalf(Vec3f wo, Vec3f wi, Vec3f& h, float& cos_oh) {
   const Vec3f sum = wo + wi;
   const float len = length(sum);
@@ -631,14 +633,9 @@ Rgb BsdfAt::eval(Vec3f wi) const {
   if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return Rgb(0.0f);
   if (m.kind == MaterialKind::RoughDiffuse)  // needs no half vector
     return orenNayar(clamp01(m.base_color), m.sigma, wo, wi);
-  // |wo + wi| = 2 cos(theta_h) with wo.h = wi.h = cos(theta_h). Taking the Fresnel cosine from the
-  // length instead of from dot(wo, h) keeps f(wo, wi) and f(wi, wo) bitwise equal (the two dot
-  // products differ by rounding, which matters for Fresnel near grazing).
-  const Vec3f sum = wo + wi;
-  const float len = length(sum);
-  if (!(len > 0.0f)) return Rgb(0.0f);
-  const Vec3f h = sum / len;
-  const float cos_oh = clampf(0.5f * len, 0.0f, 1.0f);
+  Vec3f h;
+  float cos_oh;
+  if (!reflectionHalf(wo, wi, h, cos_oh)) return Rgb(0.0f);
   switch (m.kind) {
     case MaterialKind::Conductor: {
       const float mf = microfacetReflection(m.model, alphaOf(m.roughness), wo, wi, h);

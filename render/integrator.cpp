@@ -211,13 +211,7 @@ class Tracer {
     sp.uv_ok = fr.uv_ok;
     sp.mm_per_uv = mesh_.mmPerUv.empty() ? 1.0f : mesh_.mmPerUv[h.prim];
     if (!(sp.mm_per_uv > 0)) sp.mm_per_uv = 1.0f;
-    // Two-sided: the normals face the side the ray came from.
-    if (dot(sp.ng, r.d) > 0) {
-      sp.ng = -sp.ng;
-      sp.ns = -sp.ns;
-      sp.outside = false;
-    }
-    if (dot(sp.ns, sp.ng) <= 0) sp.ns = sp.ng;
+    faceTheRay(sp, r.d);
     if (need_footprint) {
       // Transfer of the auxiliary rays to the tangent plane (Igehy 1999, eq. 10 and 11).
       auto transfer = [&](Vec3f dod, Vec3f ddd) {
@@ -241,6 +235,17 @@ class Tracer {
     return sp;
   }
 
+  // Two-sided: the normals turn to face the side the ray d came from (`outside` records whether
+  // they already did), and a shading normal on the other side gives way to the geometric one.
+  static void faceTheRay(SurfacePoint& sp, Vec3f d) {
+    if (dot(sp.ng, d) > 0) {
+      sp.ng = -sp.ng;
+      sp.ns = -sp.ns;
+      sp.outside = false;
+    }
+    if (dot(sp.ns, sp.ng) <= 0) sp.ns = sp.ng;
+  }
+
   // A hit on the solid's back or rim: smooth-shaded (back) or flat (rim), no chart.
   SurfacePoint shellSurface(const Hit& h, const DiffRay& r) const {
     SurfacePoint sp;
@@ -257,12 +262,7 @@ class Tracer {
     Frame on = Frame::fromNormal(sp.ng);
     sp.dpdu = on.t;
     sp.dpdv = on.b;
-    if (dot(sp.ng, r.d) > 0) {
-      sp.ng = -sp.ng;
-      sp.ns = -sp.ns;
-      sp.outside = false;
-    }
-    if (dot(sp.ns, sp.ng) <= 0) sp.ns = sp.ng;
+    faceTheRay(sp, r.d);
     sp.dpdx = sp.dpdy = Vec3f(0.0f);
     sp.duvdx = sp.duvdy = Vec2f(0.0f, 0.0f);
     return sp;
@@ -1330,7 +1330,6 @@ DiffRay cameraRay(const RayGenerator& gen, float px, float py) {
 
 std::vector<Material> layerMaterials(const Material& part, const LayerStack& stack) {
   std::vector<Material> out;
-  if (part.kind == MaterialKind::Glass) return {part};  // a scratch in glass cuts only glass
   for (size_t i = 0; i < stack.layers.size(); ++i) {
     if (i == 0) {
       out.push_back(part);

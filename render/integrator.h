@@ -40,8 +40,8 @@ struct RenderScene {
 
 // The materials a scratch exposes, per layer: the part's own material for layer 0; for car paint
 // the base coat (rough diffuse in the base colour), the primer (rough diffuse grey) and bare steel
-// (exact conductor Fresnel, roughness 0.3) below it. A glass part has one layer: a scratch in glass
-// cuts only glass.
+// (exact conductor Fresnel, roughness 0.3) below it. Other parts (glass included) have a one-layer
+// stack, so their scratches show the part's own material.
 std::vector<Material> layerMaterials(const Material& part, const LayerStack& stack);
 
 struct RenderSettings {

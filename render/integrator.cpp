@@ -8,6 +8,7 @@
 #include "core/rng.h"
 #include "render/groove.h"
 #include "render/groove_area.h"
+#include "render/light_pattern.h"
 
 namespace dg {
 
@@ -83,25 +84,6 @@ bool occluded(RTCScene scene, Vec3f o, Vec3f d, float tnear, float tfar) {
   r.flags = 0;
   rtcOccluded1(scene, &ctx, &r);
   return r.tfar < 0;  // Embree sets tfar to -inf on occlusion
-}
-
-// Light samples: n per light, sample k of them stratified over the light's sample domain: on a
-// q x q grid when n = q^2 (strataPerAxis(n) = q), else in n strata along the first coordinate
-// (strataPerAxis(n) = 0). Every stratum is used once and each sample is one uniform point, so
-// the estimate is unbiased for any n.
-int strataPerAxis(int n) {
-  int q = int(std::lround(std::sqrt(float(std::max(1, n)))));
-  return q * q == n ? q : 0;
-}
-Vec2f stratifiedSample(int k, int n, Rng& rng) {
-  const int q = strataPerAxis(n);
-  if (q == 0) {
-    float ux = ((k % n) + rng.uniform()) / n;
-    return {ux, rng.uniform()};
-  }
-  float ux = ((k % q) + rng.uniform()) / q;
-  float uy = ((k / q) % q + rng.uniform()) / q;
-  return {ux, uy};
 }
 
 float powerHeuristic(float a, float b) {
@@ -190,7 +172,13 @@ class Tracer {
           max_half_ = std::max(max_half_, float(sc->referenceProfile().halfExtent()) * sc->maxScale());
         }
     grooves_ = s.groove_shading && has_scratches_;
+    lattice_g_ = latticeGenerator(st.groove_light_samples);
+    for (int d = 1; d * d <= st.groove_light_samples; ++d)
+      if (st.groove_light_samples % d == 0) sub_count_ = d;
   }
+
+  // The light pattern's generator for n samples per light: n is 1 or groove_light_samples.
+  int latticeG(int n) const { return n == st_.groove_light_samples ? lattice_g_ : latticeGenerator(n); }
 
   SurfacePoint surface(const Hit& h, const DiffRay& r, bool need_footprint) const {
     SurfacePoint sp;
@@ -353,13 +341,13 @@ class Tracer {
     return m;
   }
 
-  // Stratified sample k of n (stratifiedSample) on an area light as seen from `origin`: the unit
-  // direction, the distance and the solid-angle pdf. False when the point is behind the light
-  // (one-sided emitters) or coincides with the origin.
-  static bool sampleAreaLight(const AreaLight& al, int k, int n, Vec3f origin, Rng& rng, Vec3f& wl, float& dist,
-                              float& pl) {
-    Vec2f u = stratifiedSample(k, n, rng);
-    Vec3f q = al.samplePoint(u);
+  // Sample k of a light pattern (render/light_pattern.h) on an area light as seen from `origin`:
+  // the unit direction, the distance and the solid-angle pdf. False when the point is behind the
+  // light (one-sided emitters) or coincides with the origin. An annulus's second coordinate is its
+  // angle, periodic.
+  static bool sampleAreaLight(const AreaLight& al, const LightPattern& pat, int k, Vec3f origin, Vec3f& wl,
+                              float& dist, float& pl) {
+    Vec3f q = al.samplePoint(pat.at(k, al.shape == AreaLight::Shape::Disk));
     wl = q - origin;
     dist = length(wl);
     if (!(dist > 0)) return false;
@@ -369,11 +357,10 @@ class Tracer {
     return true;
   }
 
-  // Stratified sample k of n on the environment light: its direction, radiance Le and
+  // Sample k of a light pattern on the environment light: its direction, radiance Le and
   // solid-angle pdf pe.
-  Vec3f sampleEnvLight(int k, int n, Rng& rng, Rgb& Le, float& pe) const {
-    Vec2f u = stratifiedSample(k, n, rng);
-    return s_.lights.env->sample(u, Le, pe);
+  Vec3f sampleEnvLight(const LightPattern& pat, int k, Rgb& Le, float& pe) const {
+    return s_.lights.env->sample(pat.at(k, false), Le, pe);
   }
 
   Rgb trace(DiffRay ray, Rng& rng, uint64_t& nrays) const {
@@ -495,11 +482,12 @@ class Tracer {
                          ? std::clamp(st_.camera_hit_bsdf_per_pixel / std::max(1, st_.spp), 1, st_.camera_hit_bsdf_samples)
                          : 1;
       const BsdfAt bsdf(m, wo);
-      for (const AreaLight& al : s_.lights.area)
+      for (const AreaLight& al : s_.lights.area) {
+        const LightPattern pat(nl, latticeG(nl), rng);
         for (int k = 0; k < nl; ++k) {
           Vec3f wl;
           float dist, pl;
-          if (!sampleAreaLight(al, k, nl, origin, rng, wl, dist, pl) || dot(wl, sp.ng) <= 0) continue;
+          if (!sampleAreaLight(al, pat, k, origin, wl, dist, pl) || dot(wl, sp.ng) <= 0) continue;
           Vec3f wi = fr.toLocal(wl);
           if (wi.z <= 0 || !(pl > 0)) continue;
           Rgb f = bsdf.eval(wi);
@@ -509,11 +497,13 @@ class Tracer {
           float w = powerHeuristic(nl * pl, ns * bsdf.pdf(wi));
           L += beta * f * al.radiance * (wi.z * w / (nl * pl));
         }
-      if (s_.lights.env)
+      }
+      if (s_.lights.env) {
+        const LightPattern pat(nl, latticeG(nl), rng);
         for (int k = 0; k < nl; ++k) {
           Rgb Le;
           float pe;
-          Vec3f wl = sampleEnvLight(k, nl, rng, Le, pe);
+          Vec3f wl = sampleEnvLight(pat, k, Le, pe);
           Vec3f wi = fr.toLocal(wl);
           if (pe > 0 && wi.z > 0 && dot(wl, sp.ng) > 0 && maxComponent(Le) > 0) {
             Rgb f = bsdf.eval(wi);
@@ -523,6 +513,7 @@ class Tracer {
             }
           }
         }
+      }
 
       // Auxiliary rays follow the mirror transfer about the shading normal (the surface's
       // curvature is neglected); after a rough bounce this underestimates the footprint. Through
@@ -1050,12 +1041,12 @@ class Tracer {
     // nm / (nb + nm).
     const int nm = level == 0 && !direct_only ? std::min(st_.groove_lobe_samples, 4 * int(portions.size())) : 0;
     const float nbm = float(nb + nm);
-    // Deeper levels are reached by many first-level directions, so each takes one of nq subsets
-    // of every light's samples: a diagonal of the nq x nq strata ((column + row) mod nq), chosen at
-    // random. Every sample is used with probability 1/nq, so the estimate stays unbiased with
-    // nl / nq samples per light (also the MIS count). (All samples when nl is not a square.)
-    const int nq = strataPerAxis(nl);
-    const int nsub = level == 0 || nq == 0 ? 1 : nq;
+    // Deeper levels are reached by many first-level directions, so each takes one of nsub subsets
+    // of every light's samples, chosen at random: the samples k = off (mod nsub), nsub the largest
+    // divisor of nl up to sqrt(nl). Every sample is used with probability 1/nsub, so the estimate
+    // stays unbiased with nl / nsub samples per light (also the MIS count). On the light pattern's
+    // lattice such a subset is a coarser lattice, spread over the whole light as the full set is.
+    const int nsub = level == 0 ? 1 : sub_count_;
     const int off = nsub > 1 ? std::min(nsub - 1, int(rng.uniform() * float(nsub))) : 0;
     const float nl_eff = float(nl) / float(nsub);
     Rgb L(0.0f);
@@ -1072,7 +1063,7 @@ class Tracer {
       const BsdfAt bsdf(m, wo);
       for (size_t li = 0; li < ls.size(); ++li) {
         const LightSample& l = ls[li];
-        if (!l.visible || (nsub > 1 && (l.k % nq + l.k / nq) % nsub != off)) continue;
+        if (!l.visible || (nsub > 1 && l.k % nsub != off)) continue;
         Vec3f wi = fr.toLocal(l.wl);
         if (wi.z <= 0) continue;
         double lit = geo.lit(p, li);
@@ -1205,28 +1196,32 @@ class Tracer {
     ls.clear();
     Vec3f origin = aboveGrooves(gs);
     RTCScene scene = s_.part->scene();
-    // nl stratified samples per light (stratifiedSample); each carries 1/nl of the estimate and
-    // the MIS weights count nl light samples per BSDF sample.
-    for (const AreaLight& al : s_.lights.area)
+    // nl samples per light (a light pattern); each carries 1/nl of the estimate and the MIS
+    // weights count nl light samples per BSDF sample.
+    for (const AreaLight& al : s_.lights.area) {
+      const LightPattern pat(nl, latticeG(nl), rng);
       for (int k = 0; k < nl; ++k) {
         Vec3f wl;
         float dist, pl;
-        if (!sampleAreaLight(al, k, nl, origin, rng, wl, dist, pl) || !(pl > 0)) continue;
+        if (!sampleAreaLight(al, pat, k, origin, wl, dist, pl) || !(pl > 0)) continue;
         ++nrays;
         bool vis = !occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f));
         ls.push_back({wl, al.radiance, pl, vis, k});
       }
-    if (s_.lights.env)
+    }
+    if (s_.lights.env) {
+      const LightPattern pat(nl, latticeG(nl), rng);
       for (int k = 0; k < nl; ++k) {
         Rgb Le;
         float pe;
-        Vec3f wl = sampleEnvLight(k, nl, rng, Le, pe);
+        Vec3f wl = sampleEnvLight(pat, k, Le, pe);
         if (pe > 0 && maxComponent(Le) > 0) {
           ++nrays;
           bool vis = !occluded(scene, origin, wl, 0.0f, kInf);
           ls.push_back({wl, Le, pe, vis, k});
         }
       }
+    }
     Rgb L(0.0f);
     for (const GrooveSet& set : sets) {
       if (set.area) {
@@ -1315,6 +1310,8 @@ class Tracer {
   bool grooves_ = false;
   float max_height_ = 0, max_depth_ = 0, max_half_ = 0;  // over all scratches (mm)
   float tan_light_max_ = 6.0f;  // cap on the shadow reach toward grazing lights (Bosch §4.2.1)
+  int lattice_g_ = 1;   // the light pattern's generator for groove_light_samples
+  int sub_count_ = 1;   // light-sample subsets at deeper groove levels (shadeLevel)
 };
 
 thread_local Tracer::GrooveCounts Tracer::counts_;

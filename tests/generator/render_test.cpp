@@ -316,6 +316,46 @@ TEST(Render, GrooveLobeSamplesKeepTheMeanAndLowerTheNoise) {
   }
 }
 
+// The light pattern (render/light_pattern.h) at groove shading's camera hits: a polished
+// aluminium plate seen close up under the ring light around the lens reflects the ring through
+// its glossy lobe's tail, brighter on the side the pixel leans to. The unscratched plate's pixel
+// noise at 1 spp (relative standard deviation between noise seeds), measured with the lattice and
+// with the jittered strata it replaced (a q x q grid for square counts, else strata along one
+// axis): 16 samples per light 3.0% against 8.4%, 8 samples 6.0% against 22%, 64 samples 0.2%
+// against 2.4%.
+TEST(Render, RingLitPlateIsSmoothAtOneSample) {
+  std::string cfg = "part: {type: plate, width_mm: 20, height_mm: 20}\n"
+                    "material: {type: metal, metal: aluminium, roughness: 0.15}\n"
+                    "lights:\n  - {type: ring, radius_mm: 30, inner_radius_mm: 20, radiance: [6, 6, 6]}\n"
+                    "camera: {fov_deg: 5, position: [0, 0, 60], target: [0, 0, 0]}\n"
+                    "render: {resolution: [32, 32], spp: 1, max_bounces: 2, scratches: groove}\n"
+                    "defects:\n  - {type: scratch, count: 1, length_mm: 2, orientation_deg: 0,"
+                    " region: [0.9, 0.9, 0.95, 0.95]}\n";
+  Dataset ds = prepareDataset(parseConfig(cfg, "test.yaml"));
+  for (auto [nl, limit] : {std::pair{16, 0.045}, {8, 0.09}, {64, 0.006}}) {
+    const int runs = 8;
+    std::vector<std::vector<float>> imgs;
+    for (int r = 0; r < runs; ++r) {
+      Sample s = makeSample(ds, 1, 0);
+      s.settings.groove_light_samples = nl;
+      s.settings.seed = 500 + uint64_t(r);
+      imgs.push_back(render(s.scene, s.settings).rgb.data);
+    }
+    double rel = 0;
+    const size_t n = imgs[0].size();
+    for (size_t i = 0; i < n; ++i) {
+      double m = 0, q = 0;
+      for (const auto& im : imgs) m += im[i] / double(runs);
+      for (const auto& im : imgs) q += (im[i] - m) * (im[i] - m) / double(runs - 1);
+      ASSERT_GT(m, 0.01);
+      rel += q / (m * m) / double(n);
+    }
+    rel = std::sqrt(rel);
+    std::printf("[          ] %d light samples: relative noise %.4f\n", nl, rel);
+    EXPECT_LT(rel, limit) << nl << " light samples";
+  }
+}
+
 TEST(Render, GlassSlabTransmitsTheFresnelSeries) {
   // A 4 mm glass plate (IOR 1.5, polished) over a panel that fills the view below it, nothing
   // above, seen head-on: every path that reaches the panel crosses both faces, after 2k inner

@@ -1,0 +1,66 @@
+#include "render/light_pattern.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <numeric>
+
+namespace dg {
+
+namespace {
+
+// Distance of x to the nearest integer.
+double wrap(double x) { return std::fabs(x - std::round(x)); }
+
+double tent(double u) { return 1.0 - std::fabs(2.0 * u - 1.0); }
+
+// In [0, 1) also after rounding to float.
+float below1(double u) { return std::min(float(u), 0x1.fffffep-1f); }
+
+}  // namespace
+
+int latticeGenerator(int n) {
+  if (n <= 3) return 1;
+  int best_g = 1;
+  int64_t best_rho = -1;
+  double best_d = -1;
+  for (int g = 1; g < n; ++g) {
+    if (std::gcd(g, n) != 1) continue;  // else the points share rows of the n x n grid
+    // Zaremba's index: the smallest max(1, |h1|) max(1, |h2|) over the nonzero integer
+    // frequencies (h1, h2), |h| <= n / 2, with h1 + g h2 = 0 (mod n). Those are the Fourier modes
+    // the rule cannot tell from a constant; the larger the index, the smaller the error on a
+    // smooth periodic integrand (Niederreiter 1992, ch. 5). h2 = 0 gives h1 = n.
+    int64_t rho = n;
+    for (int h2 = 1; h2 <= n / 2; ++h2) {
+      int64_t h1 = (int64_t(n) - (int64_t(g) * h2) % n) % n;
+      if (h1 > n / 2) h1 -= n;
+      rho = std::min<int64_t>(rho, std::max<int64_t>(1, std::llabs(h1)) * h2);
+    }
+    // Ties: the largest smallest distance between two points on the unit torus (the lattice is a
+    // group, so it is the smallest distance of a point k >= 1 from point 0).
+    double dmin = 1e9;
+    for (int k = 1; k < n; ++k) {
+      const double dx = wrap(double(k) / n), dy = wrap(double((int64_t(k) * g) % n) / n);
+      dmin = std::min(dmin, dx * dx + dy * dy);
+    }
+    if (rho > best_rho || (rho == best_rho && dmin > best_d + 1e-15)) {
+      best_rho = rho;
+      best_d = dmin;
+      best_g = g;
+    }
+  }
+  return best_g;
+}
+
+LightPattern::LightPattern(int n, int g, Rng& rng)
+    : n_(std::max(1, n)), g_(g), sx_(rng.uniformD()), sy_(rng.uniformD()) {}
+
+Vec2f LightPattern::at(int k, bool periodic_y) const {
+  const double x = double(k) / n_ + sx_;
+  const double y = double((int64_t(k) * g_) % n_) / n_ + sy_;
+  const double ux = x - std::floor(x), uy = y - std::floor(y);
+  return {below1(tent(ux)), below1(periodic_y ? uy : tent(uy))};
+}
+
+}  // namespace dg

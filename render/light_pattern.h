@@ -1,0 +1,43 @@
+// Where the n light samples that a shading point takes on one light fall in the light's 2-D
+// sample domain [0, 1)^2: a randomly shifted rank-1 lattice (a Korobov lattice), folded by the
+// tent map in the coordinates that are not periodic.
+//
+// Point k of n is frac((k / n, k g / n) + s) for a generator g chosen per n and one uniform shift
+// s per shading point and light (Cranley & Patterson 1976). Each point alone is uniform, so every
+// sample, and every subset of them, is an unbiased light sample, as before. Together they spread
+// evenly in both coordinates for any n: the q x q jittered grid they replace did that only for
+// square n (8 samples fell into 8 strata along one axis, which on the accuracy test's ring light
+// left the noise of random angles: 2.5 times the error of 16). For a smooth integrand a shifted
+// lattice's error falls faster than a jittered grid's, and the tent map u -> 1 - |2u - 1| (it
+// keeps the uniform distribution) makes a non-periodic coordinate look periodic to the lattice,
+// which is what that needs (Hickernell 2002, "Obtaining O(N^-2+e) convergence for lattice
+// quadrature rules"; Dick, Nuyens & Pillichshammer 2014). Where a shadow edge crosses the light
+// the integrand is not smooth, and the lattice does about as well as the grid.
+#pragma once
+#include "core/math.h"
+#include "core/rng.h"
+
+namespace dg {
+
+// The generator g in [1, n), prime to n, of the best lattice {(k / n, frac(k g / n))}: the
+// largest Zaremba index, then the largest smallest distance between two points on the unit torus
+// (the first such g); 1 for n <= 3. Prime to n, every row and every column of the n x n grid
+// holds one point (a Latin square), so a light that varies along one coordinate only is sampled
+// in n strata. O(n^2).
+int latticeGenerator(int n);
+
+class LightPattern {
+ public:
+  // n points for generator g (latticeGenerator(n)); the shift takes two numbers from rng.
+  LightPattern(int n, int g, Rng& rng);
+  // Point k (0 <= k < n), with u.y left periodic when `periodic_y` (an angle); the tent map folds
+  // u.x always and u.y otherwise. Both in [0, 1).
+  Vec2f at(int k, bool periodic_y) const;
+  int size() const { return n_; }
+
+ private:
+  int n_, g_;
+  double sx_, sy_;
+};
+
+}  // namespace dg

@@ -23,7 +23,7 @@ inline uint64_t hashKey(uint64_t a, uint64_t b = 0, uint64_t c = 0, uint64_t d =
 }
 
 // Purposes, so that streams for different uses never overlap.
-enum class Stream : uint64_t { Scene = 1, Pixel = 2, Mask = 3, Defect = 4, Test = 99 };
+enum class Stream : uint64_t { Scene = 1, Pixel = 2, Mask = 3, Defect = 4, PixelPattern = 5, Test = 99 };
 
 class Rng {
  public:

@@ -347,7 +347,10 @@ class Tracer {
   // angle, periodic.
   static bool sampleAreaLight(const AreaLight& al, const LightPattern& pat, int k, Vec3f origin, Vec3f& wl,
                               float& dist, float& pl) {
-    Vec3f q = al.samplePoint(pat.at(k, al.shape == AreaLight::Shape::Disk));
+    return sampleAreaLight(al, pat.at(k, al.shape == AreaLight::Shape::Disk), origin, wl, dist, pl);
+  }
+  static bool sampleAreaLight(const AreaLight& al, Vec2f u, Vec3f origin, Vec3f& wl, float& dist, float& pl) {
+    Vec3f q = al.samplePoint(u);
     wl = q - origin;
     dist = length(wl);
     if (!(dist > 0)) return false;
@@ -363,10 +366,14 @@ class Tracer {
     return s_.lights.env->sample(pat.at(k, false), Le, pe);
   }
 
-  Rgb trace(DiffRay ray, Rng& rng, uint64_t& nrays) const {
+  // Camera sample s of a pixel; `pads` (optional) spreads the first bounce's light samples and
+  // BSDF direction over the pixel's samples (PixelPattern: dimension i < lights for area light i,
+  // then the environment, then the BSDF; the last one is the position in the pixel, render()).
+  Rgb trace(DiffRay ray, Rng& rng, uint64_t& nrays, const PixelPattern* pads = nullptr, int s = 0) const {
     // Camera rays count as "specular": no MIS on directly seen lights.
-    return continuePath(ray, Rgb(1.0f), 0.0f, true, Vec3f(0.0f), 0, rng, nrays, 1);
+    return continuePath(ray, Rgb(1.0f), 0.0f, true, Vec3f(0.0f), 0, rng, nrays, 1, 1.0f, pads, s);
   }
+  int padDimensions() const { return int(s_.lights.area.size()) + 3; }
 
   // The path from `ray` on, with throughput beta and the previous vertex's BSDF pdf (for MIS on
   // emitters the ray hits). `depth0` is the number of surface bounces before this ray.
@@ -376,7 +383,8 @@ class Tracer {
   // is (a groove footprint's continued BSDF directions share the strategy with its direct-only
   // lobe directions, shadeLevel).
   Rgb continuePath(DiffRay ray, Rgb beta, float prev_pdf, bool prev_specular, Vec3f prev_p, int depth0, Rng& rng,
-                   uint64_t& nrays, float prev_nl, float prev_share = 1.0f) const {
+                   uint64_t& nrays, float prev_nl, float prev_share = 1.0f, const PixelPattern* pads = nullptr,
+                   int pad_s = 0) const {
     Rgb L(0.0f);
     RTCScene scene = s_.part->scene();
     // Russian roulette looks at the throughput relative to the one this path started with (so a
@@ -482,12 +490,18 @@ class Tracer {
                          ? std::clamp(st_.camera_hit_bsdf_per_pixel / std::max(1, st_.spp), 1, st_.camera_hit_bsdf_samples)
                          : 1;
       const BsdfAt bsdf(m, wo);
-      for (const AreaLight& al : s_.lights.area) {
+      // The camera hit's single light samples and BSDF direction come from the pixel's pattern.
+      const PixelPattern* pp = depth == 0 && nl == 1 ? pads : nullptr;
+      const int nal = int(s_.lights.area.size());
+      for (int li = 0; li < nal; ++li) {
+        const AreaLight& al = s_.lights.area[size_t(li)];
         const LightPattern pat(nl, latticeG(nl), rng);
         for (int k = 0; k < nl; ++k) {
           Vec3f wl;
           float dist, pl;
-          if (!sampleAreaLight(al, pat, k, origin, wl, dist, pl) || dot(wl, sp.ng) <= 0) continue;
+          const bool disk = al.shape == AreaLight::Shape::Disk;
+          const Vec2f u = pp ? pp->at(li, pad_s, disk) : pat.at(k, disk);
+          if (!sampleAreaLight(al, u, origin, wl, dist, pl) || dot(wl, sp.ng) <= 0) continue;
           Vec3f wi = fr.toLocal(wl);
           if (wi.z <= 0 || !(pl > 0)) continue;
           Rgb f = bsdf.eval(wi);
@@ -503,7 +517,7 @@ class Tracer {
         for (int k = 0; k < nl; ++k) {
           Rgb Le;
           float pe;
-          Vec3f wl = sampleEnvLight(pat, k, Le, pe);
+          Vec3f wl = s_.lights.env->sample(pp ? pp->at(nal, pad_s, false) : pat.at(k, false), Le, pe);
           Vec3f wi = fr.toLocal(wl);
           if (pe > 0 && wi.z > 0 && dot(wl, sp.ng) > 0 && maxComponent(Le) > 0) {
             Rgb f = bsdf.eval(wi);
@@ -565,6 +579,7 @@ class Tracer {
       BsdfSample bs;
       float ul = rng.uniform();
       Vec2f ud{rng.uniform(), rng.uniform()};
+      if (depth == 0 && pads) ud = pads->at(nal + 1, pad_s, false);
       if (!sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0)) break;
       Vec3f wi_w = fr.toWorld(bs.wi);
       if (!sameSide(bs.wi, wi_w, sp.ng)) break;
@@ -1376,6 +1391,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
   for (int d = 1; d * d <= st.spp; ++d)
     if (st.spp % d == 0) sy = d;
   const int sx = st.spp / sy;
+  const int spp_g = latticeGenerator(st.spp);
 
   parallelFor(size_t(tx) * ty, [&](size_t tile) {
     int x0 = int(tile % tx) * kTile, y0 = int(tile / tx) * kTile;
@@ -1383,16 +1399,26 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
     uint64_t local_rays = 0;
     Tracer::takeCounts();  // start this tile's groove counts from zero
     std::vector<uint16_t> counts(size_t(ninst) + 1);
+    PixelPattern pads;
     std::vector<float> scov(size_t(ninst) + 1);
     for (int y = y0; y < y1; ++y)
       for (int x = x0; x < x1; ++x) {
         uint64_t pixel = uint64_t(y) * W + x;
         if (st.want_rgb) {
           Rgb sum(0.0f);
+          if (st.spp > 1) {
+            Rng prng(hashKey(st.seed, uint64_t(Stream::PixelPattern), st.sample_index, pixel));
+            pads.reset(st.spp, spp_g, tracer.padDimensions(), prng);
+          }
           for (int s = 0; s < st.spp; ++s) {
             Rng rng(hashKey(st.seed, uint64_t(Stream::Pixel), st.sample_index, pixel * 65536u + s));
             // Pixel (x, y) covers [x - 0.5, x + 0.5] in OpenCV's convention; box filter.
             float jx = rng.uniform(), jy = rng.uniform();
+            if (st.spp > 1) {
+              const Vec2f j = pads.at(tracer.padDimensions() - 1, s, false);
+              jx = j.x;
+              jy = j.y;
+            }
             DiffRay r;
             if (tracer.grooves_) {
               // Groove rendering integrates each stratum's footprint analytically: samples sit at
@@ -1404,7 +1430,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
             } else {
               r = cameraRay(gen, x - 0.5f + jx, y - 0.5f + jy);
             }
-            Rgb c = tracer.trace(r, rng, local_rays);
+            Rgb c = tracer.trace(r, rng, local_rays, st.spp > 1 ? &pads : nullptr, s);
             if (isFinite(c)) sum += c;
           }
           float* o = out.rgb.at(x, y);

@@ -25,7 +25,11 @@ int latticeGenerator(int n) {
   int best_g = 1;
   int64_t best_rho = -1;
   double best_d = -1;
-  for (int g = 1; g < n; ++g) {
+  // Past 1024 points only generators near n / golden ratio are tried (the Fibonacci lattices'
+  // neighbourhood, where the good 2-D lattices are), so that the search stays O(n).
+  const int lo = n <= 1024 ? 1 : std::max(1, int(n * 0.6180339887) - 32);
+  const int hi = n <= 1024 ? n - 1 : std::min(n - 1, int(n * 0.6180339887) + 32);
+  for (int g = lo; g <= hi; ++g) {
     if (std::gcd(g, n) != 1) continue;  // else the points share rows of the n x n grid
     // Zaremba's index: the smallest max(1, |h1|) max(1, |h2|) over the nonzero integer
     // frequencies (h1, h2), |h| <= n / 2, with h1 + g h2 = 0 (mod n). Those are the Fourier modes
@@ -61,6 +65,25 @@ Vec2f LightPattern::at(int k, bool periodic_y) const {
   const double y = double((int64_t(k) * g_) % n_) / n_ + sy_;
   const double ux = x - std::floor(x), uy = y - std::floor(y);
   return {below1(tent(ux)), below1(periodic_y ? uy : tent(uy))};
+}
+
+void PixelPattern::reset(int spp, int g, int dims, Rng& rng) {
+  n_ = std::max(1, spp);
+  dims_.clear();
+  for (int d = 0; d < dims; ++d) {
+    LightPattern pat(n_, g, rng);
+    int a = 1;
+    if (n_ > 2)
+      do a = 1 + int(rng.next32() % uint32_t(n_ - 1));
+      while (std::gcd(a, n_) != 1);
+    const int b = int(rng.next32() % uint32_t(n_));
+    dims_.push_back({pat, a, b});
+  }
+}
+
+Vec2f PixelPattern::at(int d, int s, bool periodic_y) const {
+  const Dim& q = dims_[size_t(d)];
+  return q.pat.at(int((int64_t(q.a) * s + q.b) % n_), periodic_y);
 }
 
 }  // namespace dg

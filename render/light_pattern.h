@@ -14,6 +14,8 @@
 // quadrature rules"; Dick, Nuyens & Pillichshammer 2014). Where a shadow edge crosses the light
 // the integrand is not smooth, and the lattice does about as well as the grid.
 #pragma once
+#include <vector>
+
 #include "core/math.h"
 #include "core/rng.h"
 
@@ -23,7 +25,7 @@ namespace dg {
 // largest Zaremba index, then the largest smallest distance between two points on the unit torus
 // (the first such g); 1 for n <= 3. Prime to n, every row and every column of the n x n grid
 // holds one point (a Latin square), so a light that varies along one coordinate only is sampled
-// in n strata. O(n^2).
+// in n strata. O(n^2) up to 1024 points; past that only generators near n / 1.618 are tried.
 int latticeGenerator(int n);
 
 class LightPattern {
@@ -38,6 +40,28 @@ class LightPattern {
  private:
   int n_, g_;
   double sx_, sy_;
+};
+
+// The first bounce's sample dimensions of one pixel's spp camera samples, spread over those
+// samples: dimension d (a light, or the BSDF direction) of camera sample s is point pi_d(s) of its
+// own shifted lattice of spp points, where pi_d(s) = (a_d s + b_d) mod spp is a random affine
+// permutation that keeps the dimensions from moving in step ("padding", Kollig & Keller 2002,
+// "Efficient multidimensional sampling"). Each point alone is uniform, so every camera sample
+// stays an unbiased estimate; together the pixel's samples cover each light and the BSDF's
+// directions evenly.
+class PixelPattern {
+ public:
+  // spp points (generator g = latticeGenerator(spp)) in `dims` dimensions; draws from rng.
+  void reset(int spp, int g, int dims, Rng& rng);
+  Vec2f at(int d, int s, bool periodic_y) const;
+
+ private:
+  struct Dim {
+    LightPattern pat;
+    int a, b;
+  };
+  int n_ = 1;
+  std::vector<Dim> dims_;
 };
 
 }  // namespace dg

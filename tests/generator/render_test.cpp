@@ -356,6 +356,59 @@ TEST(Render, RingLitPlateIsSmoothAtOneSample) {
   }
 }
 
+// The pixel pattern (render/light_pattern.h, PixelPattern): the path tracer's first bounce takes
+// one light sample per light and one BSDF direction per camera sample, and the pixel's samples
+// share them out over a lattice each, as they share the positions in the pixel. The same
+// ring-lit plate, unscratched: relative pixel noise between seeds measured 3.2% with the pattern
+// and 20% with independent samples at 16 spp; 0.51% and 9.6% at 64 spp.
+TEST(Render, PixelPatternLowersThePathTracersNoise) {
+  std::string cfg = "part: {type: plate, width_mm: 20, height_mm: 20}\n"
+                    "material: {type: metal, metal: aluminium, roughness: 0.15}\n"
+                    "lights:\n  - {type: ring, radius_mm: 30, inner_radius_mm: 20, radiance: [6, 6, 6]}\n"
+                    "camera: {fov_deg: 5, position: [0, 0, 60], target: [0, 0, 0]}\n"
+                    "render: {resolution: [24, 24], spp: 16, max_bounces: 2}\n";
+  Dataset ds = prepareDataset(parseConfig(cfg, "test.yaml"));
+  auto imageMean = [](const std::vector<float>& v) {
+    double m = 0;
+    for (float x : v) m += x / double(v.size());
+    return m;
+  };
+  // The pattern keeps the mean: 1024 renders at 1 spp (no pattern: one sample per pixel) give the
+  // image's mean within about 0.1% (with 2048: 0.9996 and 1.0007 of it at 16 and 64 spp).
+  double mean1 = 0;
+  for (int r = 0; r < 1024; ++r) {
+    Sample s = makeSample(ds, 1, 0);
+    s.settings.spp = 1;
+    s.settings.seed = 900 + uint64_t(r);
+    mean1 += imageMean(render(s.scene, s.settings).rgb.data) / 1024;
+  }
+  for (auto [spp, limit] : {std::pair{16, 0.06}, {64, 0.015}}) {
+    const int runs = 8;
+    std::vector<std::vector<float>> imgs;
+    double mean = 0;
+    for (int r = 0; r < runs; ++r) {
+      Sample s = makeSample(ds, 1, 0);
+      s.settings.spp = spp;
+      s.settings.seed = 700 + uint64_t(r);
+      imgs.push_back(render(s.scene, s.settings).rgb.data);
+      mean += imageMean(imgs.back()) / runs;
+    }
+    EXPECT_NEAR(mean / mean1, 1.0, 0.005) << spp << " spp";
+    double rel = 0;
+    const size_t n = imgs[0].size();
+    for (size_t i = 0; i < n; ++i) {
+      double m = 0, q = 0;
+      for (const auto& im : imgs) m += im[i] / double(runs);
+      for (const auto& im : imgs) q += (im[i] - m) * (im[i] - m) / double(runs - 1);
+      ASSERT_GT(m, 0.01);
+      rel += q / (m * m) / double(n);
+    }
+    rel = std::sqrt(rel);
+    std::printf("[          ] %d spp: relative noise %.4f, image mean / 1-spp mean %.4f\n", spp, rel, mean / mean1);
+    EXPECT_LT(rel, limit) << spp << " spp";
+  }
+}
+
 TEST(Render, GlassSlabTransmitsTheFresnelSeries) {
   // A 4 mm glass plate (IOR 1.5, polished) over a panel that fills the view below it, nothing
   // above, seen head-on: every path that reaches the panel crosses both faces, after 2k inner

@@ -145,5 +145,51 @@ TEST(LightPattern, SmoothIntegrandsConvergeFasterThanJitteredStrata) {
   }
 }
 
+
+// A pixel's pattern: every (dimension, sample) point is uniform; within one dimension the
+// pixel's samples integrate a smooth function far better than independent samples; and two
+// dimensions do not move in step (the mean |correlation| of their points over a pixel's samples
+// is about 1 / sqrt(n); the same lattice unpermuted, differing only in its shift, gives about 0.6).
+TEST(PixelPattern, UniformEvenAndDecorrelated) {
+  const int n = 64, g = latticeGenerator(n), dims = 3, runs = 3000;
+  Rng rng(5);
+  PixelPattern pp;
+  std::vector<int> hist(64, 0);
+  double err2 = 0, corr = 0;
+  auto f = [](Vec2f u) { return std::exp(-2.0 * ((u.x - 0.4) * (u.x - 0.4) + (u.y - 0.7) * (u.y - 0.7))); };
+  const int m = 1000;
+  double exact = 0;
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) exact += f(Vec2f((i + 0.5f) / m, (j + 0.5f) / m)) / (double(m) * m);
+  double var1 = 0;
+  for (int r = 0; r < runs; ++r) {
+    pp.reset(n, g, dims, rng);
+    Vec2f u = pp.at(1, r % n, true);
+    ++hist[int(u.y * 8) * 8 + int(u.x * 8)];
+    double est = 0, sxy = 0, sx = 0, sy = 0, sxx = 0, syy = 0;
+    for (int s = 0; s < n; ++s) {
+      est += f(pp.at(0, s, false)) / n;
+      const double a = pp.at(0, s, false).x, b = pp.at(2, s, false).x;
+      sx += a / n;
+      sy += b / n;
+      sxy += a * b / n;
+      sxx += a * a / n;
+      syy += b * b / n;
+      const double v = f(Vec2f(rng.uniform(), rng.uniform())) - exact;
+      var1 += v * v / (double(runs) * n);
+    }
+    err2 += (est - exact) * (est - exact) / runs;
+    corr += std::fabs(sxy - sx * sy) / std::sqrt((sxx - sx * sx) * (syy - sy * sy)) / runs;
+  }
+  double chi2 = 0;
+  for (int c : hist) chi2 += (c - runs / 64.0) * (c - runs / 64.0) / (runs / 64.0);
+  EXPECT_LT(chi2, 104);  // 63 degrees of freedom, 99.9%
+  const double rms = std::sqrt(err2), rms_mc = std::sqrt(var1 / n);
+  printf("64 samples: rms error %.3g (independent %.3g); mean |correlation| of two dimensions %.3f\n", rms, rms_mc,
+         corr);
+  EXPECT_LT(rms, rms_mc / 20);
+  EXPECT_LT(corr, 0.2);
+}
+
 }  // namespace
 }  // namespace dg

@@ -341,14 +341,10 @@ class Tracer {
     return m;
   }
 
-  // Sample k of a light pattern (render/light_pattern.h) on an area light as seen from `origin`:
-  // the unit direction, the distance and the solid-angle pdf. False when the point is behind the
-  // light (one-sided emitters) or coincides with the origin. An annulus's second coordinate is its
-  // angle, periodic.
-  static bool sampleAreaLight(const AreaLight& al, const LightPattern& pat, int k, Vec3f origin, Vec3f& wl,
-                              float& dist, float& pl) {
-    return sampleAreaLight(al, pat.at(k, al.shape == AreaLight::Shape::Disk), origin, wl, dist, pl);
-  }
+  // The point u of an area light's sample domain (lightPoint; an annulus's second coordinate is
+  // its angle, periodic) as seen from `origin`: the unit direction, the distance and the
+  // solid-angle pdf. False when the point is behind the light (one-sided emitters) or coincides
+  // with the origin.
   static bool sampleAreaLight(const AreaLight& al, Vec2f u, Vec3f origin, Vec3f& wl, float& dist, float& pl) {
     Vec3f q = al.samplePoint(u);
     wl = q - origin;
@@ -360,10 +356,13 @@ class Tracer {
     return true;
   }
 
-  // Sample k of a light pattern on the environment light: its direction, radiance Le and
-  // solid-angle pdf pe.
-  Vec3f sampleEnvLight(const LightPattern& pat, int k, Rgb& Le, float& pe) const {
-    return s_.lights.env->sample(pat.at(k, false), Le, pe);
+  // Sample k of the nl a camera hit takes on light li (area lights, then the environment), in the
+  // light's sample domain: from the pixel's pattern where it has one for this count (a single
+  // sample per light, or groove shading's nl per camera sample), else from the hit's own `pat`.
+  static Vec2f lightPoint(const PixelPattern* pads, int s, int li, const LightPattern& pat, int k, bool periodic) {
+    if (pads && pat.size() == 1) return pads->at(li, s, periodic);
+    if (pads && pads->lightSamples() == pat.size()) return pads->light(li, k, s, periodic);
+    return pat.at(k, periodic);
   }
 
   // Camera sample s of a pixel; `pads` (optional) spreads the first bounce's light samples and
@@ -458,7 +457,7 @@ class Tracer {
               for (GrooveSet& gs : sets) gs.one_material = true;
             }
           }
-          L += beta * shadeGrooves(sets, m, wo_w, rng, nrays);
+          L += beta * shadeGrooves(sets, m, wo_w, rng, nrays, pads, pad_s);
           break;
         }
       }
@@ -490,8 +489,8 @@ class Tracer {
                          ? std::clamp(st_.camera_hit_bsdf_per_pixel / std::max(1, st_.spp), 1, st_.camera_hit_bsdf_samples)
                          : 1;
       const BsdfAt bsdf(m, wo);
-      // The camera hit's single light samples and BSDF direction come from the pixel's pattern.
-      const PixelPattern* pp = depth == 0 && nl == 1 ? pads : nullptr;
+      // The camera hit's light samples and BSDF direction come from the pixel's pattern.
+      const PixelPattern* pp = depth == 0 ? pads : nullptr;
       const int nal = int(s_.lights.area.size());
       for (int li = 0; li < nal; ++li) {
         const AreaLight& al = s_.lights.area[size_t(li)];
@@ -499,8 +498,7 @@ class Tracer {
         for (int k = 0; k < nl; ++k) {
           Vec3f wl;
           float dist, pl;
-          const bool disk = al.shape == AreaLight::Shape::Disk;
-          const Vec2f u = pp ? pp->at(li, pad_s, disk) : pat.at(k, disk);
+          const Vec2f u = lightPoint(pp, pad_s, li, pat, k, al.shape == AreaLight::Shape::Disk);
           if (!sampleAreaLight(al, u, origin, wl, dist, pl) || dot(wl, sp.ng) <= 0) continue;
           Vec3f wi = fr.toLocal(wl);
           if (wi.z <= 0 || !(pl > 0)) continue;
@@ -517,7 +515,7 @@ class Tracer {
         for (int k = 0; k < nl; ++k) {
           Rgb Le;
           float pe;
-          Vec3f wl = s_.lights.env->sample(pp ? pp->at(nal, pad_s, false) : pat.at(k, false), Le, pe);
+          Vec3f wl = s_.lights.env->sample(lightPoint(pp, pad_s, nal, pat, k, false), Le, pe);
           Vec3f wi = fr.toLocal(wl);
           if (pe > 0 && wi.z > 0 && dot(wl, sp.ng) > 0 && maxComponent(Le) > 0) {
             Rgb f = bsdf.eval(wi);
@@ -1202,7 +1200,7 @@ class Tracer {
   }
 
   Rgb shadeGrooves(const std::vector<GrooveSet>& sets, const Material& top, Vec3f wo_w, Rng& rng,
-                   uint64_t& nrays) const {
+                   uint64_t& nrays, const PixelPattern* pads, int pad_s) const {
     const GrooveSet& gs = sets.front();  // every set shares the footprint centre and W
     const int nl = st_.groove_light_samples;
     // The light samples are shared by all facets (the shadowing inside the grooves is exact per
@@ -1213,12 +1211,15 @@ class Tracer {
     RTCScene scene = s_.part->scene();
     // nl samples per light (a light pattern); each carries 1/nl of the estimate and the MIS
     // weights count nl light samples per BSDF sample.
-    for (const AreaLight& al : s_.lights.area) {
+    const int nal = int(s_.lights.area.size());
+    for (int li = 0; li < nal; ++li) {
+      const AreaLight& al = s_.lights.area[size_t(li)];
       const LightPattern pat(nl, latticeG(nl), rng);
       for (int k = 0; k < nl; ++k) {
         Vec3f wl;
         float dist, pl;
-        if (!sampleAreaLight(al, pat, k, origin, wl, dist, pl) || !(pl > 0)) continue;
+        const Vec2f u = lightPoint(pads, pad_s, li, pat, k, al.shape == AreaLight::Shape::Disk);
+        if (!sampleAreaLight(al, u, origin, wl, dist, pl) || !(pl > 0)) continue;
         ++nrays;
         bool vis = !occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f));
         ls.push_back({wl, al.radiance, pl, vis, k});
@@ -1229,7 +1230,7 @@ class Tracer {
       for (int k = 0; k < nl; ++k) {
         Rgb Le;
         float pe;
-        Vec3f wl = sampleEnvLight(pat, k, Le, pe);
+        Vec3f wl = s_.lights.env->sample(lightPoint(pads, pad_s, nal, pat, k, false), Le, pe);
         if (pe > 0 && maxComponent(Le) > 0) {
           ++nrays;
           bool vis = !occluded(scene, origin, wl, 0.0f, kInf);
@@ -1392,6 +1393,11 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
     if (st.spp % d == 0) sy = d;
   const int sx = st.spp / sy;
   const int spp_g = latticeGenerator(st.spp);
+  // Groove shading: the pixel's camera samples share one lattice per light (PixelPattern::light).
+  const int light_g = tracer.grooves_ && st.spp > 1 && st.groove_light_samples > 1
+                          ? latticeGenerator(st.groove_light_samples * st.spp, st.groove_light_samples,
+                                             latticeGenerator(st.groove_light_samples))
+                          : 0;
 
   parallelFor(size_t(tx) * ty, [&](size_t tile) {
     int x0 = int(tile % tx) * kTile, y0 = int(tile / tx) * kTile;
@@ -1409,6 +1415,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
           if (st.spp > 1) {
             Rng prng(hashKey(st.seed, uint64_t(Stream::PixelPattern), st.sample_index, pixel));
             pads.reset(st.spp, spp_g, tracer.padDimensions(), prng);
+            if (light_g > 0) pads.resetLights(tracer.padDimensions() - 2, st.groove_light_samples, light_g, prng);
           }
           for (int s = 0; s < st.spp; ++s) {
             Rng rng(hashKey(st.seed, uint64_t(Stream::Pixel), st.sample_index, pixel * 65536u + s));

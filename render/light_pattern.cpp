@@ -20,17 +20,22 @@ float below1(double u) { return std::min(float(u), 0x1.fffffep-1f); }
 
 }  // namespace
 
-int latticeGenerator(int n) {
-  if (n <= 3) return 1;
-  int best_g = 1;
+int latticeGenerator(int n, int m, int r) {
+  m = std::max(1, m);
+  if (n <= 3 && m == 1) return 1;
+  int best_g = m == 1 ? 1 : r;
   int64_t best_rho = -1;
   double best_d = -1;
-  // Past 1024 points only generators near n / golden ratio are tried (the Fibonacci lattices'
-  // neighbourhood, where the good 2-D lattices are), so that the search stays O(n).
-  const int lo = n <= 1024 ? 1 : std::max(1, int(n * 0.6180339887) - 32);
-  const int hi = n <= 1024 ? n - 1 : std::min(n - 1, int(n * 0.6180339887) + 32);
-  for (int g = lo; g <= hi; ++g) {
-    if (std::gcd(g, n) != 1) continue;  // else the points share rows of the n x n grid
+  // The candidates g = r + j m. Past 1024 of them only those near n / golden ratio are tried (the
+  // Fibonacci lattices' neighbourhood, where the good 2-D lattices are), so that the search
+  // stays O(n).
+  const int count = (n - r + m - 1) / m;
+  const int centre = int(n * 0.6180339887 - r) / m;
+  const int lo = count <= 1024 ? 0 : std::max(0, centre - 32);
+  const int hi = count <= 1024 ? count - 1 : std::min(count - 1, centre + 32);
+  for (int j = lo; j <= hi; ++j) {
+    const int g = r + j * m;
+    if (g < 1 || std::gcd(g, n) != 1) continue;  // else the points share rows of the n x n grid
     // Zaremba's index: the smallest max(1, |h1|) max(1, |h2|) over the nonzero integer
     // frequencies (h1, h2), |h| <= n / 2, with h1 + g h2 = 0 (mod n). Those are the Fourier modes
     // the rule cannot tell from a constant; the larger the index, the smaller the error on a
@@ -69,6 +74,7 @@ Vec2f LightPattern::at(int k, bool periodic_y) const {
 
 void PixelPattern::reset(int spp, int g, int dims, Rng& rng) {
   n_ = std::max(1, spp);
+  nl_ = 0;
   dims_.clear();
   for (int d = 0; d < dims; ++d) {
     LightPattern pat(n_, g, rng);
@@ -84,6 +90,12 @@ void PixelPattern::reset(int spp, int g, int dims, Rng& rng) {
 Vec2f PixelPattern::at(int d, int s, bool periodic_y) const {
   const Dim& q = dims_[size_t(d)];
   return q.pat.at(int((int64_t(q.a) * s + q.b) % n_), periodic_y);
+}
+
+void PixelPattern::resetLights(int lights, int nl, int g, Rng& rng) {
+  nl_ = nl;
+  lights_.clear();
+  for (int i = 0; i < lights; ++i) lights_.emplace_back(nl * n_, g, rng);
 }
 
 }  // namespace dg

@@ -26,7 +26,10 @@ namespace dg {
 // (the first such g); 1 for n <= 3. Prime to n, every row and every column of the n x n grid
 // holds one point (a Latin square), so a light that varies along one coordinate only is sampled
 // in n strata. O(n^2) up to 1024 points; past that only generators near n / 1.618 are tried.
-int latticeGenerator(int n);
+// With m > 1, only generators g = r (mod m) are considered: the lattice of n = m p points then
+// splits into p sub-lattices {k p + s : k < m} (s < p), each the m-point lattice of generator r,
+// so with r = latticeGenerator(m) every part is a good lattice too (PixelPattern::light).
+int latticeGenerator(int n, int m = 1, int r = 0);
 
 class LightPattern {
  public:
@@ -54,14 +57,24 @@ class PixelPattern {
   // spp points (generator g = latticeGenerator(spp)) in `dims` dimensions; draws from rng.
   void reset(int spp, int g, int dims, Rng& rng);
   Vec2f at(int d, int s, bool periodic_y) const;
+  // Where every camera sample takes nl samples per light (groove shading's camera hits): one
+  // lattice of nl * spp points per light for the pixel, generator g = latticeGenerator(nl * spp,
+  // nl, latticeGenerator(nl)); camera sample s takes its points k spp + s, k < nl, themselves an
+  // nl-point lattice of the usual generator. Call after reset().
+  void resetLights(int lights, int nl, int g, Rng& rng);
+  int lightSamples() const { return nl_; }  // nl, or 0 without resetLights
+  Vec2f light(int li, int k, int s, bool periodic_y) const {
+    return lights_[size_t(li)].at(k * n_ + s, periodic_y);
+  }
 
  private:
   struct Dim {
     LightPattern pat;
     int a, b;
   };
-  int n_ = 1;
+  int n_ = 1, nl_ = 0;
   std::vector<Dim> dims_;
+  std::vector<LightPattern> lights_;
 };
 
 }  // namespace dg

@@ -146,6 +146,31 @@ TEST(LightPattern, SmoothIntegrandsConvergeFasterThanJitteredStrata) {
 }
 
 
+// Generators restricted to g = r (mod m): the lattice of n = m p points splits into p sub-lattices
+// {k p + s : k < m}, each the m-point lattice of generator r (a camera sample's light samples
+// within its pixel's lattice), and the whole is still a good lattice: its Zaremba index is at
+// least 40% of the best unrestricted one's (printed).
+TEST(LightPattern, EmbeddedLatticesSplitIntoGoodParts) {
+  const int m = 16, r = latticeGenerator(16);
+  for (int p : {2, 3, 4, 8, 16}) {
+    const int n = m * p, g = latticeGenerator(n, m, r);
+    SCOPED_TRACE(testing::Message() << n << " points, generator " << g);
+    EXPECT_EQ(g % m, r);
+    EXPECT_EQ(std::gcd(g, n), 1);
+    for (int s = 0; s < p; ++s)
+      for (int k = 0; k + 1 < m; ++k) {
+        // Consecutive points of a part step by 1/m along x and by r/m (mod 1) along y.
+        const int64_t y0 = (int64_t(k * p + s) * g) % n, y1 = (int64_t((k + 1) * p + s) * g) % n;
+        EXPECT_EQ(((y1 - y0) % n + n) % n, (int64_t(r) * p) % n);
+      }
+    int64_t best = 0;
+    for (int h = 1; h < n; ++h)
+      if (std::gcd(h, n) == 1) best = std::max(best, zaremba(n, h));
+    printf("%3d points: Zaremba index %lld (best unrestricted %lld)\n", n, (long long)zaremba(n, g), (long long)best);
+    EXPECT_GE(zaremba(n, g), 0.4 * double(best));
+  }
+}
+
 // A pixel's pattern: every (dimension, sample) point is uniform; within one dimension the
 // pixel's samples integrate a smooth function far better than independent samples; and two
 // dimensions do not move in step (the mean |correlation| of their points over a pixel's samples

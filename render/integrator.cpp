@@ -365,6 +365,36 @@ class Tracer {
     return pat.at(k, periodic);
   }
 
+  // The nl light samples per light that a point at `origin` takes, area lights first, then the
+  // environment (lightPoint; `pads` and s as there, null away from a camera hit). For each one
+  // visit(k, wl, dist, pdf, Le, env) gets the sample's index, unit direction, distance (area
+  // lights), solid-angle pdf and radiance, and whether it is the environment's. Points behind an
+  // area light are skipped.
+  template <class Visit>
+  void forEachLightSample(int nl, Vec3f origin, const PixelPattern* pads, int s, Rng& rng, Visit&& visit) const {
+    const int nal = int(s_.lights.area.size());
+    for (int li = 0; li < nal; ++li) {
+      const AreaLight& al = s_.lights.area[size_t(li)];
+      const LightPattern pat(nl, latticeG(nl), rng);
+      for (int k = 0; k < nl; ++k) {
+        Vec3f wl;
+        float dist, pl;
+        if (sampleAreaLight(al, lightPoint(pads, s, li, pat, k, al.shape == AreaLight::Shape::Disk), origin, wl, dist,
+                            pl))
+          visit(k, wl, dist, pl, al.radiance, false);
+      }
+    }
+    if (s_.lights.env) {
+      const LightPattern pat(nl, latticeG(nl), rng);
+      for (int k = 0; k < nl; ++k) {
+        Rgb Le;
+        float pe;
+        Vec3f wl = s_.lights.env->sample(lightPoint(pads, s, nal, pat, k, false), Le, pe);
+        visit(k, wl, kInf, pe, Le, true);
+      }
+    }
+  }
+
   // Camera sample s of a pixel; `pads` (optional) spreads the first bounce's light samples and
   // BSDF direction over the pixel's samples (PixelPattern: dimension i < lights for area light i,
   // then the environment, then the BSDF; the last one is the position in the pixel, render()).
@@ -490,42 +520,18 @@ class Tracer {
                          : 1;
       const BsdfAt bsdf(m, wo);
       // The camera hit's light samples and BSDF direction come from the pixel's pattern.
-      const PixelPattern* pp = depth == 0 ? pads : nullptr;
-      const int nal = int(s_.lights.area.size());
-      for (int li = 0; li < nal; ++li) {
-        const AreaLight& al = s_.lights.area[size_t(li)];
-        const LightPattern pat(nl, latticeG(nl), rng);
-        for (int k = 0; k < nl; ++k) {
-          Vec3f wl;
-          float dist, pl;
-          const Vec2f u = lightPoint(pp, pad_s, li, pat, k, al.shape == AreaLight::Shape::Disk);
-          if (!sampleAreaLight(al, u, origin, wl, dist, pl) || dot(wl, sp.ng) <= 0) continue;
-          Vec3f wi = fr.toLocal(wl);
-          if (wi.z <= 0 || !(pl > 0)) continue;
-          Rgb f = bsdf.eval(wi);
-          if (maxComponent(f) <= 0) continue;
-          ++nrays;
-          if (occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f))) continue;
-          float w = powerHeuristic(nl * pl, ns * bsdf.pdf(wi));
-          L += beta * f * al.radiance * (wi.z * w / (nl * pl));
-        }
-      }
-      if (s_.lights.env) {
-        const LightPattern pat(nl, latticeG(nl), rng);
-        for (int k = 0; k < nl; ++k) {
-          Rgb Le;
-          float pe;
-          Vec3f wl = s_.lights.env->sample(lightPoint(pp, pad_s, nal, pat, k, false), Le, pe);
-          Vec3f wi = fr.toLocal(wl);
-          if (pe > 0 && wi.z > 0 && dot(wl, sp.ng) > 0 && maxComponent(Le) > 0) {
-            Rgb f = bsdf.eval(wi);
-            if (maxComponent(f) > 0 && (++nrays, !occluded(scene, origin, wl, 0.0f, kInf))) {
-              float w = powerHeuristic(nl * pe, ns * bsdf.pdf(wi));
-              L += beta * f * Le * (wi.z * w / (nl * pe));
-            }
-          }
-        }
-      }
+      forEachLightSample(nl, origin, depth == 0 ? pads : nullptr, pad_s, rng,
+                         [&](int, Vec3f wl, float dist, float pl, const Rgb& Le, bool env) {
+                           if (!(pl > 0) || dot(wl, sp.ng) <= 0) return;
+                           Vec3f wi = fr.toLocal(wl);
+                           if (wi.z <= 0 || (env && maxComponent(Le) <= 0)) return;
+                           Rgb f = bsdf.eval(wi);
+                           if (maxComponent(f) <= 0) return;
+                           ++nrays;
+                           if (occluded(scene, origin, wl, 0.0f, env ? kInf : dist * (1 - 1e-4f))) return;
+                           float w = powerHeuristic(nl * pl, ns * bsdf.pdf(wi));
+                           L += beta * f * Le * (wi.z * w / (nl * pl));
+                         });
 
       // Auxiliary rays follow the mirror transfer about the shading normal (the surface's
       // curvature is neglected); after a rough bounce this underestimates the footprint. Through
@@ -577,7 +583,7 @@ class Tracer {
       BsdfSample bs;
       float ul = rng.uniform();
       Vec2f ud{rng.uniform(), rng.uniform()};
-      if (depth == 0 && pads) ud = pads->at(nal + 1, pad_s, false);
+      if (depth == 0 && pads) ud = pads->at(int(s_.lights.area.size()) + 1, pad_s, false);
       if (!sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0)) break;
       Vec3f wi_w = fr.toWorld(bs.wi);
       if (!sameSide(bs.wi, wi_w, sp.ng)) break;
@@ -1211,33 +1217,12 @@ class Tracer {
     RTCScene scene = s_.part->scene();
     // nl samples per light (a light pattern); each carries 1/nl of the estimate and the MIS
     // weights count nl light samples per BSDF sample.
-    const int nal = int(s_.lights.area.size());
-    for (int li = 0; li < nal; ++li) {
-      const AreaLight& al = s_.lights.area[size_t(li)];
-      const LightPattern pat(nl, latticeG(nl), rng);
-      for (int k = 0; k < nl; ++k) {
-        Vec3f wl;
-        float dist, pl;
-        const Vec2f u = lightPoint(pads, pad_s, li, pat, k, al.shape == AreaLight::Shape::Disk);
-        if (!sampleAreaLight(al, u, origin, wl, dist, pl) || !(pl > 0)) continue;
-        ++nrays;
-        bool vis = !occluded(scene, origin, wl, 0.0f, dist * (1 - 1e-4f));
-        ls.push_back({wl, al.radiance, pl, vis, k});
-      }
-    }
-    if (s_.lights.env) {
-      const LightPattern pat(nl, latticeG(nl), rng);
-      for (int k = 0; k < nl; ++k) {
-        Rgb Le;
-        float pe;
-        Vec3f wl = s_.lights.env->sample(lightPoint(pads, pad_s, nal, pat, k, false), Le, pe);
-        if (pe > 0 && maxComponent(Le) > 0) {
-          ++nrays;
-          bool vis = !occluded(scene, origin, wl, 0.0f, kInf);
-          ls.push_back({wl, Le, pe, vis, k});
-        }
-      }
-    }
+    forEachLightSample(nl, origin, pads, pad_s, rng, [&](int k, Vec3f wl, float dist, float pl, const Rgb& Le, bool env) {
+      if (!(pl > 0) || (env && maxComponent(Le) <= 0)) return;
+      ++nrays;
+      bool vis = !occluded(scene, origin, wl, 0.0f, env ? kInf : dist * (1 - 1e-4f));
+      ls.push_back({wl, Le, pl, vis, k});
+    });
     Rgb L(0.0f);
     for (const GrooveSet& set : sets) {
       if (set.area) {

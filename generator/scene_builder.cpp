@@ -87,8 +87,8 @@ void planeAxes(Vec3f n, Vec3f& u, Vec3f& v) {
 Dataset prepareDataset(Config config) {
   Dataset ds;
   TriangleMesh front = buildPart(config);
-  ds.shell = partShell(config, front);
-  auto part = std::make_shared<PartGeometry>(std::move(front), ds.shell);
+  TriangleMesh shell = partShell(config, front);
+  auto part = std::make_shared<PartGeometry>(std::move(front), std::move(shell));
   // Occlusion is computed once, and only when a patina group is drawn to cavities.
   bool cavities = false;
   for (const Value& d : config.root["defects"].items)
@@ -639,7 +639,7 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
     opt.max_edge_mm = displace_edge;
     DisplacementStats st;
     try {
-      s.scene.part = std::make_shared<PartGeometry>(displaceMesh(ds.part->mesh(), displaced, opt, &st), ds.shell);
+      s.scene.part = std::make_shared<PartGeometry>(displaceMesh(ds.part->mesh(), displaced, opt, &st), ds.part->shell());
     } catch (const std::runtime_error& e) {
       throw InputError(c.file, groups.line, groups.column,
                        "'defects': cannot displace the part for sample " + std::to_string(index) + ": " + e.what() +
@@ -668,7 +668,7 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
                        "'defects': render.scratches: geometry cannot be combined with displaced dents");
     try {
       ScratchGeometryStats st;
-      s.scene.part = std::make_shared<PartGeometry>(scratchedMesh(ds.part->mesh(), scratches, {}, &st), ds.shell);
+      s.scene.part = std::make_shared<PartGeometry>(scratchedMesh(ds.part->mesh(), scratches, {}, &st), ds.part->shell());
       meta["scratches"]["triangles"] = st.triangles;
       meta["scratches"]["cell_mm"] = st.cell_mm;
       meta["scratches"]["part_triangles_cut"] = st.part_triangles_cut;

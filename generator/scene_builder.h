@@ -15,7 +15,6 @@ namespace dg {
 struct Dataset {
   Config config;
   std::shared_ptr<const PartGeometry> part;
-  TriangleMesh shell;  // the back and rim that close a glass part into a solid; empty otherwise
   std::vector<std::shared_ptr<const EnvironmentMap>> env_maps;  // per light index (null if none)
   bool has_calibration = false;
   CameraIntrinsics calibration;

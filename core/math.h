@@ -57,6 +57,12 @@ template <class T> inline V3<T> normalize(V3<T> a) {
   T l = length(a);
   return l > T(0) ? a / l : a;
 }
+// n / |n| in single precision, or +z where n is zero (the normal of a degenerate triangle, or a
+// vertex whose faces cancel).
+inline V3<float> unitOrUp(V3<double> n) {
+  double l = length(n);
+  return l > 0 ? V3<float>(n / l) : V3<float>(0, 0, 1);
+}
 template <class T> inline T maxComponent(V3<T> a) { return std::max(a.x, std::max(a.y, a.z)); }
 template <class T> inline bool isFinite(V3<T> a) {
   return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);

@@ -71,10 +71,7 @@ TriangleMesh solidShell(const TriangleMesh& front, float thickness_mm) {
       for (int k = 0; k < 3; ++k) acc[f[k]] += n;
     }
     vn.resize(nv);
-    for (size_t i = 0; i < nv; ++i) {
-      double l = length(acc[i]);
-      vn[i] = l > 0 ? Vec3f(acc[i] / l) : Vec3f(0, 0, 1);
-    }
+    for (size_t i = 0; i < nv; ++i) vn[i] = unitOrUp(acc[i]);
   }
   const bool has_h = front.heights.size() == nv;
   // The back: vertex i + 0 .. nv, facing the other way (reversed winding, negated normals).
@@ -95,9 +92,7 @@ TriangleMesh solidShell(const TriangleMesh& front, float thickness_mm) {
   for (const auto& [a, b] : outline) {
     Vec3f fa = front.positions[a], fb = front.positions[b];
     Vec3f ba = shell.positions[a], bb = shell.positions[b];
-    Vec3d n = cross(toD(fa) - toD(fb), toD(ba) - toD(fb));
-    double l = length(n);
-    Vec3f nf = l > 0 ? Vec3f(n / l) : Vec3f(0, 0, 1);
+    Vec3f nf = unitOrUp(cross(toD(fa) - toD(fb), toD(ba) - toD(fb)));
     uint32_t base = uint32_t(shell.positions.size());
     for (Vec3f p : {fb, fa, ba, bb}) {
       shell.positions.push_back(p);

@@ -54,10 +54,8 @@ PartGeometry::PartGeometry(TriangleMesh mesh, TriangleMesh shell) : mesh_(std::m
     shell_ng_.resize(shell_.triangleCount());
     for (size_t t = 0; t < shell_ng_.size(); ++t) {
       const uint32_t* f = &shell_.indices[3 * t];
-      Vec3d n = cross(Vec3d(shell_.positions[f[1]]) - Vec3d(shell_.positions[f[0]]),
-                      Vec3d(shell_.positions[f[2]]) - Vec3d(shell_.positions[f[0]]));
-      double l = length(n);
-      shell_ng_[t] = l > 0 ? Vec3f(n / l) : Vec3f(0, 0, 1);
+      shell_ng_[t] = unitOrUp(cross(Vec3d(shell_.positions[f[1]]) - Vec3d(shell_.positions[f[0]]),
+                                    Vec3d(shell_.positions[f[2]]) - Vec3d(shell_.positions[f[0]])));
     }
   }
   rtcCommitScene(scene_);
@@ -79,7 +77,7 @@ PartGeometry::PartGeometry(TriangleMesh mesh, TriangleMesh shell) : mesh_(std::m
     double nl = length(n);
     area_cdf_.push_back((area_cdf_.empty() ? 0.0 : area_cdf_.back()) + 0.5 * nl);
     TriFrame& fr = frames_[t];
-    fr.ng = nl > 0 ? Vec3f(n / nl) : Vec3f(0, 0, 1);
+    fr.ng = unitOrUp(n);
     fr.uv_ok = false;
     if (has_uv) {
       Vec2f a = mesh_.uvs[f[0]], b = mesh_.uvs[f[1]], c = mesh_.uvs[f[2]];

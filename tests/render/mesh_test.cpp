@@ -116,6 +116,18 @@ double simpson(const std::function<double(double)>& f, double a, double b, int n
 
 // ------------------------------------------------------------------ TriangleMesh
 
+TEST(Math, UnitOrUpNormalisesAndFallsBackToUp) {
+  Vec3f n = unitOrUp(cross(Vec3d(2, 0, 0), Vec3d(0, 0, 3)));  // (0, -6, 0)
+  EXPECT_NEAR(n.x, 0.0f, 1e-7f);
+  EXPECT_NEAR(n.y, -1.0f, 1e-7f);
+  EXPECT_NEAR(n.z, 0.0f, 1e-7f);
+  n = unitOrUp(Vec3d(3e-30, 0, 4e-30));  // tiny but not zero: still a unit vector
+  EXPECT_NEAR(n.x, 0.6f, 1e-6f);
+  EXPECT_NEAR(n.z, 0.8f, 1e-6f);
+  // A degenerate (collinear) triangle has no normal: +z.
+  EXPECT_EQ(unitOrUp(cross(Vec3d(1, 1, 1), Vec3d(2, 2, 2))), Vec3f(0, 0, 1));
+}
+
 TEST(TriangleMesh, AreaBoundsAndMmPerUv) {
   TriangleMesh m;
   m.positions = {{0, 0, 0}, {4, 0, 0}, {0, 3, 0}, {4, 3, 5}};

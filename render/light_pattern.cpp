@@ -75,6 +75,7 @@ Vec2f LightPattern::at(int k, bool periodic_y) const {
 void PixelPattern::reset(int spp, int g, int dims, Rng& rng) {
   n_ = std::max(1, spp);
   nl_ = 0;
+  nd_ = 0;
   dims_.clear();
   for (int d = 0; d < dims; ++d) {
     LightPattern pat(n_, g, rng);
@@ -96,6 +97,12 @@ void PixelPattern::resetLights(int lights, int nl, int g, Rng& rng) {
   nl_ = nl;
   lights_.clear();
   for (int i = 0; i < lights; ++i) lights_.emplace_back(nl * n_, g, rng);
+}
+
+void PixelPattern::resetDirections(int nd, int g, Rng& rng) {
+  nd_ = nd;
+  dirs_.clear();
+  dirs_.emplace_back(nd * n_, g, rng);
 }
 
 }  // namespace dg

@@ -66,15 +66,25 @@ class PixelPattern {
   Vec2f light(int li, int k, int s, bool periodic_y) const {
     return lights_[size_t(li)].at(k * n_ + s, periodic_y);
   }
+  // Where every camera sample splits into nd BSDF directions (groove shading's camera hits off
+  // the grooves), the same for their 2-D direction samples: one lattice of nd * spp points,
+  // generator g = latticeGenerator(nd * spp, nd, latticeGenerator(nd)); camera sample s takes
+  // points j spp + s, j < nd (both coordinates tent-folded). Without it the pixel's samples drew
+  // their directions independently, and off the grooves the noise rose with spp where the split
+  // count fell as spp rose (camera_hit_bsdf_per_pixel). Call after reset().
+  void resetDirections(int nd, int g, Rng& rng);
+  int directionCount() const { return nd_; }  // nd, or 0 without resetDirections
+  Vec2f direction(int j, int s) const { return dirs_.front().at(j * n_ + s, false); }
 
  private:
   struct Dim {
     LightPattern pat;
     int a, b;
   };
-  int n_ = 1, nl_ = 0;
+  int n_ = 1, nl_ = 0, nd_ = 0;
   std::vector<Dim> dims_;
   std::vector<LightPattern> lights_;
+  std::vector<LightPattern> dirs_;  // one pattern after resetDirections
 };
 
 }  // namespace dg

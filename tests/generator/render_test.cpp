@@ -419,7 +419,7 @@ TEST(Render, PixelPatternLowersThePathTracersNoise) {
 // plate's noise rose with spp past 4 (the directions' count stays, their stratification within a
 // camera sample shrinks); the pixel's samples now share one lattice of directions
 // (PixelPattern::direction). The ring-lit plate under a dim dome, a scratch out of view: relative
-// noise between seeds measured 0.35% at 4 spp and 0.28% at 16 (independent directions: 0.94% and
+// noise between seeds measured 0.46% at 4 spp and 0.25% at 16 (independent directions: 0.99% and
 // 1.37%).
 TEST(Render, GrooveShadingsPlateNoiseDoesNotRiseWithSpp) {
   std::string cfg = ringLitPlate("render: {resolution: [24, 24], spp: 4, max_bounces: 2, scratches: groove}\n"
@@ -480,7 +480,7 @@ TEST(Render, GlassSlabTransmitsTheFresnelSeries) {
   // above, seen head-on: every path that reaches the panel crosses both faces, after 2k inner
   // reflections, so L = sum_k (1 - F)^2 F^(2k) = (1 - F) / (1 + F) = 0.9231 for F = 0.04 (each
   // face's 1/eta^2 and eta^2 cancel). Geometry mode takes one direction per camera sample; with a
-  // scratch in the part (out of view) the groove renderer's camera hits split into 8 directions.
+  // scratch in the part (out of view) the groove renderer's camera hits split into 32 directions.
   // One sample per pixel, so that a pixel is one path (or one split): no path may carry more than
   // its share's (1 - F) / (3/4) (reflection is drawn at least a quarter of the time at a camera
   // hit) times a few Russian-roulette survivals; a path culled and multiplied back inside the

@@ -81,7 +81,8 @@ struct RenderSettings {
   // 8, 4, 2, 1 at 2, 4, 8, 16, 32 spp; the pixel's samples share them by a lattice,
   // PixelPattern::resetDirections). With at most 8 per camera sample, as before 2026-11-26, the
   // accuracy scenes' mean dE at 1 spp was 7-20% higher (parallel/bar 0.69 against 0.62) for
-  // 0-20% less time; 64 at 1 spp gained another 1-2% for 20-30% more time.
+  // 0-20% less time; 64 at 1 spp gained another 1-2% for 20-30% more time. Glass takes at most 8
+  // (Tracer::cameraHitSplit).
   int camera_hit_bsdf_samples = 32;
   int camera_hit_bsdf_per_pixel = 32;
 };

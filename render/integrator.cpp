@@ -178,6 +178,7 @@ class Tracer {
     split_g_ = latticeGenerator(split_n_);
     for (int d = 1; d * d <= st.groove_light_samples; ++d)
       if (st.groove_light_samples % d == 0) sub_count_ = d;
+    findBlockers();
   }
 
   // The lattice generator for n points: n is 1, groove_light_samples (light samples) or
@@ -408,13 +409,43 @@ class Tracer {
   // directions; its light samples must not see through it either. They did: under a ring light
   // and a dome, a plate's dome samples behind the ring counted with their MIS weight alone, so the
   // result depended on the sample counts (0.1% darker with one light sample and one direction
-  // than with groove shading's 16 and 8).
+  // than with groove shading's 16 and 8). `self` is the area light's index, -1 for the
+  // environment; only the emitters of findBlockers() are tested.
   bool behindAnotherLight(Vec3f origin, Vec3f wl, float dist, int self) const {
-    for (size_t j = 0; j < s_.lights.area.size(); ++j) {
+    for (int j : blockers_[size_t(self + 1)]) {
       float t;
-      if (int(j) != self && s_.lights.area[j].intersect(origin, wl, 0.0f, dist, t)) return true;
+      if (s_.lights.area[size_t(j)].intersect(origin, wl, 0.0f, dist, t)) return true;
     }
     return false;
+  }
+  // Which emitters can hide a light sample of each light (blockers_[i + 1] for area light i,
+  // blockers_[0] for the environment). Emitter j stops a ray only where the ray crosses its
+  // plane against its normal, so it can hide a point of light i only if that point lies behind
+  // its plane: a light whose every point (the corners of its rectangle or of the square around
+  // its disk) is in front of j's plane or on it (as strip lights side by side are) is never
+  // hidden by j; a sample is tested only up to just short of its own distance. The environment
+  // can be hidden by any of them. On configs/quickstart.yaml (six coplanar strips and a dome)
+  // testing every emitter for every sample cost 8% of the render time, these lists about 2%.
+  void findBlockers() {
+    const auto& area = s_.lights.area;
+    blockers_.assign(area.size() + 1, {});
+    for (size_t j = 0; j < area.size(); ++j) blockers_[0].push_back(int(j));
+    for (size_t i = 0; i < area.size(); ++i) {
+      const AreaLight& li = area[i];
+      const float hu = li.shape == AreaLight::Shape::Rect ? li.half_u : li.radius;
+      const float hv = li.shape == AreaLight::Shape::Rect ? li.half_v : li.radius;
+      for (size_t j = 0; j < area.size(); ++j) {
+        if (j == i) continue;
+        const AreaLight& lj = area[j];
+        // Behind j's plane by more than its rounding (1e-5 of the distances involved).
+        const float margin = 1e-5f * (length(li.center - lj.center) + hu + hv);
+        bool behind = false;
+        for (float a : {-hu, hu})
+          for (float b : {-hv, hv})
+            if (dot(li.center + li.axis_u * a + li.axis_v * b - lj.center, lj.normal) < -margin) behind = true;
+        if (behind) blockers_[i + 1].push_back(int(j));
+      }
+    }
   }
 
   // Camera sample s of a pixel; `pads` (optional) spreads the first bounce's light samples and
@@ -1358,6 +1389,7 @@ class Tracer {
   float tan_light_max_ = 6.0f;  // cap on the shadow reach toward grazing lights (Bosch §4.2.1)
   int lattice_g_ = 1;   // the light pattern's generator for groove_light_samples
   int split_n_ = 1, split_g_ = 1;  // cameraHitSplit() and its lattice's generator
+  std::vector<std::vector<int>> blockers_;  // findBlockers()
   int sub_count_ = 1;   // light-sample subsets at deeper groove levels (shadeLevel)
 };
 

@@ -473,6 +473,15 @@ TEST(Render, EmittersHideTheLightBehindThemFromEveryEstimator) {
               groove, sum);
   EXPECT_NEAR(groove / geometry, 1.0, 2e-4);
   EXPECT_LT(geometry, sum * 0.999);  // the ring hides some of the dome
+  // A panel wholly behind a larger one, both facing the plate: from every point of the plate the
+  // near one hides the far one, which adds nothing (it added its samples' MIS share before).
+  const std::string near_panel =
+      "  - {type: rect, position: [0, 0, 100], target: [0, 0, 0], size_mm: [200, 200], radiance: [1, 1, 1]}\n";
+  const std::string far_panel =
+      "  - {type: rect, position: [0, 0, 200], target: [0, 0, 0], size_mm: [100, 100], radiance: [5, 5, 5]}\n";
+  const double both = plate("geometry", 64, near_panel + far_panel), alone = plate("geometry", 64, near_panel);
+  std::printf("[          ] near panel %.6f, with the far panel behind it %.6f\n", alone, both);
+  EXPECT_NEAR(both / alone, 1.0, 2e-3);
 }
 
 TEST(Render, GlassSlabTransmitsTheFresnelSeries) {

@@ -344,6 +344,20 @@ double relativeNoise(const std::vector<std::vector<float>>& imgs) {
   return std::sqrt(rel);
 }
 
+// relativeNoise over 8 renders of the dataset's first sample with the noise seeds seed0, seed0 + 1,
+// ..., after `tweak(settings)` has set what the test varies.
+template <class Tweak>
+double noiseOverSeeds(const Dataset& ds, uint64_t seed0, Tweak tweak) {
+  std::vector<std::vector<float>> imgs;
+  for (int r = 0; r < 8; ++r) {
+    Sample s = makeSample(ds, 1, 0);
+    tweak(s.settings);
+    s.settings.seed = seed0 + uint64_t(r);
+    imgs.push_back(render(s.scene, s.settings).rgb.data);
+  }
+  return relativeNoise(imgs);
+}
+
 }  // namespace
 
 // The light pattern (render/light_pattern.h) at groove shading's camera hits: a polished
@@ -359,14 +373,7 @@ TEST(Render, RingLitPlateIsSmoothAtOneSample) {
       "defects:\n  - {type: scratch, count: 1, length_mm: 2, orientation_deg: 0, region: [0.9, 0.9, 0.95, 0.95]}\n");
   Dataset ds = prepareDataset(parseConfig(cfg, "test.yaml"));
   for (auto [nl, limit] : {std::pair{16, 0.045}, {8, 0.09}, {64, 0.006}}) {
-    std::vector<std::vector<float>> imgs;
-    for (int r = 0; r < 8; ++r) {
-      Sample s = makeSample(ds, 1, 0);
-      s.settings.groove_light_samples = nl;
-      s.settings.seed = 500 + uint64_t(r);
-      imgs.push_back(render(s.scene, s.settings).rgb.data);
-    }
-    const double rel = relativeNoise(imgs);
+    const double rel = noiseOverSeeds(ds, 500, [nl = nl](RenderSettings& st) { st.groove_light_samples = nl; });
     std::printf("[          ] %d light samples: relative noise %.4f\n", nl, rel);
     EXPECT_GT(rel, 0.0);
     EXPECT_LT(rel, limit) << nl << " light samples";
@@ -430,14 +437,7 @@ TEST(Render, GrooveShadingsPlateNoiseDoesNotRiseWithSpp) {
   Dataset ds = prepareDataset(parseConfig(cfg, "test.yaml"));
   std::map<int, double> rel;
   for (int spp : {4, 16}) {
-    std::vector<std::vector<float>> imgs;
-    for (int r = 0; r < 8; ++r) {
-      Sample s = makeSample(ds, 1, 0);
-      s.settings.spp = spp;
-      s.settings.seed = 300 + uint64_t(r);
-      imgs.push_back(render(s.scene, s.settings).rgb.data);
-    }
-    rel[spp] = relativeNoise(imgs);
+    rel[spp] = noiseOverSeeds(ds, 300, [spp](RenderSettings& st) { st.spp = spp; });
     std::printf("[          ] %d spp: relative noise %.4f\n", spp, rel[spp]);
     EXPECT_GT(rel[spp], 0.0);
     EXPECT_LT(rel[spp], 0.006) << spp << " spp";

@@ -625,7 +625,7 @@ class Tracer {
         // (The same lattices for the first-level directions of groove footprints, in place of
         // their Latin hypercube, were worse on the bar-lit scenes: mean dE 0.74 against 0.69 at
         // 1 spp, 0.52 against 0.49 at 2, on parallel/bar.)
-        const int n = std::min(ns, 64);
+        const int n = ns;  // at most 64 (cameraHitSplit)
         const bool lattice = depth == 0 && !glass_split;
         LatinStrata lhs(n, lattice ? 1 : 2, rng);
         std::optional<LightPattern> dirs;
@@ -1464,7 +1464,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
   // And their split BSDF directions off the grooves (PixelPattern::direction; a glass hit that
   // takes fewer draws its own lattice).
   const int split = tracer.grooves_ ? tracer.cameraHitSplit() : 1;
-  const int split_g = st.spp > 1 && split > 1 ? latticeGenerator(split * st.spp, split, latticeGenerator(split)) : 0;
+  const int split_g = st.spp > 1 && split > 1 ? latticeGenerator(split * st.spp, split, tracer.latticeG(split)) : 0;
 
   parallelFor(size_t(tx) * ty, [&](size_t tile) {
     int x0 = int(tile % tx) * kTile, y0 = int(tile / tx) * kTile;

@@ -274,6 +274,10 @@ Field buildSchema() {
               "pairs. 0 = derived from `seed`."),
       num("exposure_stops", "EV", 0, -20, 20, "Exposure applied before the sRGB curve (PNG only)."),
       enumeration("png", {"8", "16", "none"}, "8", "PNG bit depth, or none."),
+      flag("dither", true,
+           "8-bit PNG: each value goes to the code below or above it at random (in proportion to how "
+           "near it is; from the noise seed, so the same bytes on every run), so that smooth shading "
+           "keeps its mean instead of banding into flat steps. false: rounded to the nearest code."),
       flag("exr", false, "Write images/NNNNNN.exr: linear RGB plus the requested AOVs as layers."),
       flag("depth", false, "Depth AOV (camera z in mm) in the EXR."),
       flag("normals", false, "World shading-normal AOV (after bump) in the EXR."),

@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "core/fsutil.h"
 #include "core/parallel.h"
+#include "core/rng.h"
 #include "generator/scene_builder.h"
 #include "labels/coco.h"
 #include "labels/image_io.h"
@@ -93,8 +94,14 @@ void writeSampleFiles(const fs::path& out, const Config& cfg, const Sample& s, c
       for (float& v : img.data) v *= gain;
     fs::path p = out / "images" / (id + ".png");
     writeAtomically(p, [&](const fs::path& tmp) {
-      if (png == "16") writePngRgb16(tmp.string(), img);
-      else writePngRgb8(tmp.string(), img);
+      if (png == "16") {
+        writePngRgb16(tmp.string(), img);
+      } else if (r["dither"].flag()) {
+        const uint64_t key = hashKey(s.settings.seed, 0x646974686572ull, s.settings.sample_index);
+        writePngRgb8(tmp.string(), img, &key);
+      } else {
+        writePngRgb8(tmp.string(), img);
+      }
     });
   }
   Image<uint16_t> inst;

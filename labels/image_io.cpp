@@ -4,6 +4,7 @@
 // writer otherwise stamps the current local time into the header.
 #include "labels/image_io.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -14,6 +15,8 @@
 #include <OpenImageIO/imageio.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+
+#include "core/rng.h"
 
 namespace dg {
 
@@ -90,16 +93,19 @@ void writePng(const std::string& path, const cv::Mat& m) {
   if (!f) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
 }
 
-// Linear RGB (float) -> sRGB-encoded BGR (OpenCV's channel order), rounded to nearest.
+// Linear RGB (float) -> sRGB-encoded BGR (OpenCV's channel order), rounded to nearest, or with
+// `dither_key` dithered (writePngRgb8).
 template <class T>
-cv::Mat toSrgbBgr(const ImageF& img, int cv_type, double scale) {
+cv::Mat toSrgbBgr(const ImageF& img, int cv_type, double scale, const uint64_t* dither_key = nullptr) {
   cv::Mat m(img.height, img.width, cv_type);
   for (int y = 0; y < img.height; ++y) {
     T* row = m.ptr<T>(y);
     for (int x = 0; x < img.width; ++x) {
       const float* p = img.at(x, y);
       for (int c = 0; c < 3; ++c) {
-        double q = std::floor(double(linearToSrgb(p[c])) * scale + 0.5);
+        const double u = dither_key ? double(hashKey(*dither_key, uint64_t(y), uint64_t(x), uint64_t(c)) >> 11) * 0x1p-53
+                                    : 0.5;
+        double q = std::min(std::floor(double(linearToSrgb(p[c])) * scale + u), scale);
         row[3 * x + (2 - c)] = T(q);  // R,G,B -> B,G,R
       }
     }
@@ -109,9 +115,9 @@ cv::Mat toSrgbBgr(const ImageF& img, int cv_type, double scale) {
 
 }  // namespace
 
-void writePngRgb8(const std::string& path, const ImageF& linear_rgb) {
+void writePngRgb8(const std::string& path, const ImageF& linear_rgb, const uint64_t* dither_key) {
   requireRgb(linear_rgb, "writePngRgb8");
-  writePng(path, toSrgbBgr<uint8_t>(linear_rgb, CV_8UC3, 255.0));
+  writePng(path, toSrgbBgr<uint8_t>(linear_rgb, CV_8UC3, 255.0, dither_key));
 }
 
 void writePngRgb16(const std::string& path, const ImageF& linear_rgb) {

@@ -12,7 +12,13 @@ namespace dg {
 float linearToSrgb(float v);  // IEC 61966-2-1 transfer curve, input clamped to [0, 1]
 float srgbToLinear(float v);
 
-void writePngRgb8(const std::string& path, const ImageF& linear_rgb);
+// 8-bit sRGB. Without `dither_key` each value is rounded to the nearest code, so a smooth region
+// whose value lies between two codes comes out flat at one of them (off by up to half a code:
+// banding on gradients, a uniform colour offset on flat areas). With a key, code floor(v + u) is
+// written, u uniform in [0, 1) from a hash of the key, the pixel and the channel: the code's mean
+// over a region is v itself, and values on a code (0 and 255 among them) are kept exactly. Same
+// key, same bytes.
+void writePngRgb8(const std::string& path, const ImageF& linear_rgb, const uint64_t* dither_key = nullptr);
 void writePngRgb16(const std::string& path, const ImageF& linear_rgb);
 void writePngGray8(const std::string& path, const Image<uint8_t>& img);
 void writePngGray16(const std::string& path, const Image<uint16_t>& img);

@@ -370,6 +370,48 @@ TEST(Png, Rgb8ValuesRoundingAndChannelOrder) {
   EXPECT_EQ(rgb(2, 1), (std::vector<int>{255, 255, 255}));
 }
 
+TEST(Png, Rgb8DitherKeepsTheMeanAndTheExactCodes) {
+  TempDir dir;
+  // A flat 64 x 64 patch whose sRGB value lies between codes: 0.2 -> 123.55 (R), 0.01 -> 25.46 (G);
+  // 0.5 -> 187.52 (B). Rounded, every pixel is 124, 25, 188; dithered, the means are the values.
+  // A second row of patches holds values on a code (0 and 1) that dithering must keep.
+  const int n = 64;
+  ImageF img(n, n + 1, 3, 0.0f);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) img(x, y, 0) = 0.2f, img(x, y, 1) = 0.01f, img(x, y, 2) = 0.5f;
+  for (int x = 0; x < n; ++x) img(x, n, 0) = 0.0f, img(x, n, 1) = 1.0f, img(x, n, 2) = 7.0f;
+  auto means = [&](const std::string& p, std::vector<int>* last_row) {
+    cv::Mat m = cv::imread(p, cv::IMREAD_UNCHANGED);
+    EXPECT_EQ(m.type(), CV_8UC3);
+    std::vector<double> sum(3, 0.0);
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        for (int c = 0; c < 3; ++c) sum[size_t(c)] += m.at<cv::Vec3b>(y, x)[2 - c];
+    if (last_row)
+      for (int x = 0; x < n; ++x)
+        for (int c = 0; c < 3; ++c) last_row->push_back(m.at<cv::Vec3b>(n, x)[2 - c]);
+    for (double& v : sum) v /= double(n * n);
+    return sum;
+  };
+  const double exact[3] = {double(linearToSrgb(0.2f)) * 255, double(linearToSrgb(0.01f)) * 255,
+                           double(linearToSrgb(0.5f)) * 255};
+  writePngRgb8(dir.file("round.png"), img);
+  std::vector<double> r = means(dir.file("round.png"), nullptr);
+  EXPECT_EQ(r, (std::vector<double>{124, 25, 188}));
+  const uint64_t key = 42, other = 43;
+  writePngRgb8(dir.file("d1.png"), img, &key);
+  writePngRgb8(dir.file("d2.png"), img, &key);
+  writePngRgb8(dir.file("d3.png"), img, &other);
+  std::vector<int> kept;
+  std::vector<double> d = means(dir.file("d1.png"), &kept);
+  // 4096 pixels, each code off its value by at most 1 with variance p(1-p) <= 1/4: the mean's
+  // standard deviation is under 0.008 codes. Rounded, the offsets are 0.45, 0.46 and 0.48.
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(d[size_t(c)], exact[c], 0.04) << "channel " << c;
+  for (size_t i = 0; i < kept.size(); ++i) ASSERT_EQ(kept[i], (i % 3) == 0 ? 0 : 255) << "value " << i;
+  EXPECT_EQ(readBytes(dir.file("d1.png")), readBytes(dir.file("d2.png")));
+  EXPECT_NE(readBytes(dir.file("d1.png")), readBytes(dir.file("d3.png")));
+}
+
 TEST(Png, Rgb16Values) {
   TempDir dir;
   ImageF img(2, 1, 3, 0.0f);

@@ -1007,6 +1007,7 @@ class Tracer {
     float pdf;     // solid angle
     bool visible;  // not occluded by the rest of the scene (tested once, from above the grooves)
     int k;         // its index among the light's stratified samples
+    bool env;      // a sample of the environment (not of an area light)
   };
 
   // The two ways of integrating over a footprint share the shading below (shadeLevel); they
@@ -1028,6 +1029,24 @@ class Tracer {
     groove::Scatter scatter(const Portion& p, Vec3f d) const {
       return groove::scatter(sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
     }
+    // The facets a chain direction may aim at (Chain): every facet of the section, the flat ones
+    // too (a groove's bottom and the plate between grooves also mirror a bar into the walls).
+    static constexpr bool kChain = true;
+    size_t facets() const { return sec.facets(); }
+    Vec3f facetNormal(size_t k) const {
+      Vec2d n2 = sec.normal(k);
+      return gs.B * float(n2.x) + gs.W * float(n2.y);
+    }
+    int facetLayer(size_t k) const { return sec.layer[k]; }
+    // Whether facet k and portion p face each other (each has a point in front of the other's line).
+    bool faces(size_t k, const Portion& p) const {
+      const Vec2d k0 = groove::pointOn(sec, int(k), 0.0), k1 = groove::pointOn(sec, int(k), 1.0);
+      const Vec2d p0 = groove::pointOn(sec, p.facet, p.t0), p1 = groove::pointOn(sec, p.facet, p.t1);
+      const Vec2d nk = sec.normal(k), np = sec.normal(size_t(p.facet));
+      const double eps = 1e-12;
+      auto d2 = [](Vec2d a, Vec2d b) { return a.x * b.x + a.y * b.y; };
+      return std::max(d2(k0 - p0, np), d2(k1 - p0, np)) > eps && std::max(d2(p0 - k0, nk), d2(p1 - k0, nk)) > eps;
+    }
   };
   // Area sampling with polygons at crossings and ends (Bosch §4.2.4).
   struct AreaGeometry {
@@ -1043,6 +1062,13 @@ class Tracer {
     int layer(const Portion& p) const { return gs.surface.pieces()[size_t(p.piece)].layer; }
     double lit(const Portion& p, size_t li) const { return gs.surface.litFraction(p, light[li], li); }
     groove::area::Hits scatter(const Portion& p, Vec3f d) const { return gs.surface.scatter(p, local(d)); }
+    // No chain directions over polygons: their pieces are many (121 on average on
+    // scratched_door), and the chain's density sums over them for every direction.
+    static constexpr bool kChain = false;
+    size_t facets() const { return 0; }
+    bool faces(size_t, const Portion&) const { return false; }
+    Vec3f facetNormal(size_t) const { return gs.W; }
+    int facetLayer(size_t) const { return 0; }
   };
 
   // Reflected radiance of the footprint over a section (direct light on every visible facet
@@ -1089,6 +1115,191 @@ class Tracer {
     bool through = false;  // refracted into the part (glass): sc stays empty
     typename Geometry::Scatter sc;
   };
+  // Chain directions: first-level directions drawn from the far side of the light's path.
+  // Under a narrow light, the light that reaches the camera over two facets (the far one mirrors
+  // the light, the seen one passes it on at its lobe's tail) arrives only through the few of the
+  // portions' BSDF directions that land where the far facet's lobe meets the light: at 1 spp the
+  // dark wall of a groove under the bar light was sprinkled with single bright pixels. A chain
+  // direction is drawn the other way: take a light direction wl and a facet k facing it, draw v
+  // from k's BSDF as if seen from wl (the BSDF is reciprocal), and take d = -v, then a portion by
+  // weight among those that d leaves. Chain directions estimate only the direct light on what d
+  // meets (shadeLevel with direct_only), shared with the portions' BSDF directions by the balance
+  // heuristic over the joint density of portion and direction (jointDensity). The rest (the
+  // emitter that d meets, and deeper levels) stays with the BSDF directions, which reach every
+  // d, so the estimate stays unbiased whatever the chain's choices.
+  struct Chain {
+    int n = 0;  // chain directions drawn
+    // A light direction and a facet facing it: the facet's BSDF seen from the light, its mirror
+    // direction v0 (where the facet sends that light) and the cone around v0 that the chain keeps.
+    struct Pair {
+      Frame frame;
+      BsdfAt bsdf;
+      const Material* m;
+      Vec3f wl_local, v0;
+      float cone;
+    };
+    std::vector<Pair> pairs;
+    // Density of drawing d (solid angle): the mean over the pairs of their BSDF densities of -d
+    // inside their cones (a direction drawn outside its pair's cone is dropped).
+    float pdf(Vec3f d) const {
+      float sum = 0;
+      for (const Pair& q : pairs) {
+        if (dot(-d, q.v0) < q.cone) continue;
+        Vec3f v = q.frame.toLocal(-d);
+        if (v.z > 0) sum += q.bsdf.pdf(v);
+      }
+      return sum / float(pairs.size());
+    }
+  };
+  // The cone (cosine of its half-angle) around a lobe's mirror direction that a chain keeps, and
+  // that stands for the lobe when deciding whether a pair is needed: 8 alpha + 0.02 rad around
+  // the sharpest lobe (GGX's D there is 0.2% of its peak), or -1 for a surface without a sharp
+  // lobe, where a chain is never used.
+  static float lobeCone(const Material& m) {
+    float r;
+    switch (m.kind) {
+      case MaterialKind::Conductor:
+      case MaterialKind::Plastic: r = m.roughness; break;
+      case MaterialKind::CarPaint: r = m.coat_roughness; break;
+      default: return -1.0f;
+    }
+    r = std::max(r, kMinRoughness);
+    const float angle = 8.0f * r * r + 0.02f;
+    return angle >= 1.5f ? -1.0f : std::cos(angle);
+  }
+  // A seen portion as makeChain needs it.
+  template <class Portion>
+  struct SeenPortion {
+    const Portion* p;
+    Vec3f N, mirror;  // the facet normal; the mirror direction of the view about it
+    float cone;       // lobeCone of its material
+    Frame frame;
+    BsdfAt bsdf;      // seen from the view
+  };
+  // The share of a footprint's direct light under which a chain pair is not worth its cost.
+  static constexpr float kChainMinShare = 0.1f;
+  // The chain of a footprint (with `direct` its direct light), or false when it has none.
+  // - Light directions: the two visible area-light samples whose components along T are nearest
+  //   minus the view's (a mirror reflection off a wall parallel to T keeps that component, so these
+  //   are the ones a path mirrored off two walls can reach).
+  // - Pairs: with each, every facet k with a sharp lobe that faces it and faces a seen portion,
+  //   kept only where (1) no seen portion facing the peak direction d0 = -v0 already sends its
+  //   own BSDF directions there (d0 outside its cone around the mirror of the view: there its
+  //   directions rarely find what the far facet mirrors), and (2) the light it would carry, at
+  //   most about (sum over the portions facing d0 of weight x BSDF density toward d0, which
+  //   bounds f cos) x the light's radiance x k's share of it (min(1, pdf(v0) / the light
+  //   sample's pdf)) x the lobe's solid angle (1 / pdf(v0)), is at least kChainMinShare of
+  //   `direct`. Under the ring light of the accuracy scenes the walls are lit directly and (2)
+  //   drops nine pairs in ten; under the bar the dark walls keep theirs.
+  // Decided before any direction is drawn, so the estimate stays unbiased whatever is kept.
+  template <class Geometry>
+  bool makeChain(const Geometry& geo, const Material& top, Vec3f wo_w, const std::vector<LightSample>& ls,
+                 const std::vector<typename Geometry::Portion>& portions, Rgb direct, Chain& c) const {
+    if (!Geometry::kChain || st_.groove_chain_samples <= 0 || top.kind == MaterialKind::Glass) return false;
+    const GrooveSet& gs = geo.gs;
+    const float wo_t = dot(wo_w, gs.T);
+    int best[2] = {-1, -1};
+    float best_e[2] = {kInf, kInf};
+    for (size_t i = 0; i < ls.size(); ++i) {
+      if (!ls[i].visible || ls[i].env) continue;
+      const float e = std::fabs(dot(ls[i].wl, gs.T) + wo_t);
+      if (e < best_e[0]) {
+        best[1] = best[0], best_e[1] = best_e[0];
+        best[0] = int(i), best_e[0] = e;
+      } else if (e < best_e[1]) {
+        best[1] = int(i), best_e[1] = e;
+      }
+    }
+    if (best[0] < 0) return false;
+    std::vector<SeenPortion<typename Geometry::Portion>> seen;
+    seen.reserve(portions.size());
+    for (const auto& q : portions) {
+      if (!(q.weight > 0)) continue;
+      const Vec3f N = geo.normal(q);
+      const Material& m = facetMaterial(gs, geo.layer(q), top);
+      const Frame fr = Frame::fromNormalTangent(N, gs.T);
+      seen.push_back({&q, N, N * (2 * dot(wo_w, N)) - wo_w, lobeCone(m), fr, BsdfAt(m, fr.toLocal(wo_w))});
+    }
+    // The facets with a sharp lobe that face a seen portion.
+    struct Far {
+      size_t k;
+      Vec3f N;
+      const Material* m;
+      float cone;
+    };
+    std::vector<Far> far;
+    for (size_t k = 0; k < geo.facets(); ++k) {
+      const Material& m = facetMaterial(gs, geo.facetLayer(k), top);
+      const float cone = lobeCone(m);
+      if (cone < 0) continue;
+      for (const auto& q : seen) {
+        if (!geo.faces(k, *q.p)) continue;
+        far.push_back({k, geo.facetNormal(k), &m, cone});
+        break;
+      }
+    }
+    const float least = kChainMinShare * maxComponent(direct);
+    for (int li : best) {
+      if (li < 0) continue;
+      const LightSample& l = ls[size_t(li)];
+      for (const Far& fk : far) {
+        const Vec3f N = fk.N;
+        if (dot(N, l.wl) <= 0) continue;
+        const Material& m = *fk.m;
+        const float cone = fk.cone;
+        const Vec3f v0 = N * (2 * dot(l.wl, N)) - l.wl, d0 = -v0;
+        bool covered = false;
+        for (const auto& q : seen)
+          if (dot(q.N, d0) > 0) covered = covered || q.cone < 0 || dot(d0, q.mirror) >= q.cone;
+        if (covered) continue;
+        const Frame fr = Frame::fromNormalTangent(N, gs.T);
+        const Vec3f wl = fr.toLocal(l.wl), v0l = fr.toLocal(v0);
+        const BsdfAt bk(m, wl);
+        const float pk = bk.pdf(v0l);
+        if (!(pk > 0)) continue;
+        // f cos is at most the (visible-normal) density, and about it at a lobe's peak; so no
+        // Fresnel term is evaluated here.
+        const float reflectance = std::min(1.0f, pk / l.pdf);
+        float passed = 0;
+        for (const auto& q : seen) {
+          const Vec3f dq = q.frame.toLocal(d0);
+          if (dq.z > 0) passed += float(q.p->weight) * q.bsdf.pdf(dq);
+        }
+        if (passed * reflectance * maxComponent(l.Le) / pk < least) continue;
+        c.pairs.push_back(Chain::Pair{fr, bk, &m, wl, v0, cone});
+      }
+    }
+    c.n = st_.groove_chain_samples;
+    return !c.pairs.empty();
+  }
+  // The weight of the portions that direction d leaves (d on their facets' outer side): a chain
+  // direction's portion is chosen by weight among them.
+  template <class Geometry>
+  static double facingWeight(const Geometry& geo, const std::vector<typename Geometry::Portion>& portions, Vec3f d) {
+    double w = 0;
+    for (const auto& q : portions)
+      if (dot(geo.normal(q), d) > 0) w += q.weight;
+    return w;
+  }
+  // The joint density of portion p (of weight share p.weight / wsum) and direction d over the
+  // first-level directions: nbm portions' BSDF directions (pdf: p's BSDF density of d) and the
+  // chain's n directions (the chain's density of d, then p by weight among the portions facing d).
+  template <class Geometry>
+  static double jointDensity(const Geometry& geo, const std::vector<typename Geometry::Portion>& portions,
+                             double wsum, const typename Geometry::Portion& p, float nbm, float pdf, const Chain& c,
+                             Vec3f d) {
+    const double wf = facingWeight(geo, portions, d);
+    return double(nbm) * p.weight / wsum * pdf + (wf > 0 ? double(c.n) * c.pdf(d) * p.weight / wf : 0.0);
+  }
+  // The share of the direct light on what a portion's BSDF direction d meets that a set of `count`
+  // such directions takes: count / nbm without a chain, their part of the joint density with.
+  template <class Geometry>
+  static float bsdfShare(const Chain* chain, const Geometry& geo, const std::vector<typename Geometry::Portion>& portions,
+                         double wsum, const typename Geometry::Portion& p, int count, float nbm, float pdf, Vec3f d) {
+    if (!chain) return float(count) / nbm;
+    return float(double(count) * p.weight / wsum * pdf / jointDensity(geo, portions, wsum, p, nbm, pdf, *chain, d));
+  }
+
   // Direction j of n drawn from a footprint's portions: the portion by weight (stratum j of the
   // weights' sum), then a BSDF direction from it (the lobe and direction strata of `lhs`), and
   // where the rays leaving the portion that way go. False when the draw gives nothing.
@@ -1171,7 +1382,11 @@ class Tracer {
     // At the last level the BSDF directions are still sampled (they carry their MIS share of the
     // direct light through the escaped rays), but the groove is not entered again.
     const bool last = level >= std::min(st_.max_groove_bounces, st_.max_bounces - 1);
-    if (nm > 0) L += lobeDirect(geo, top, portions, wsum, wo_w, beta, nm, nbm, nl_eff, !last, ls, rng, nrays);
+    Chain chain_at;
+    const Chain* chain = nullptr;
+    if (level == 0 && !direct_only && !last && makeChain(geo, top, wo_w, ls, portions, L, chain_at)) chain = &chain_at;
+    if (nm > 0) L += lobeDirect(geo, top, portions, wsum, wo_w, beta, nm, nbm, nl_eff, !last, ls, rng, nrays, chain);
+    if (chain) L += chainDirect(geo, top, portions, wsum, wo_w, beta, nbm, *chain, ls, rng, nrays);
     Vec3f origin = aboveGrooves(gs);
     // Latin-hypercube strata for the lobe choice and the direction; the portion choice takes
     // stratum j of the weights.
@@ -1216,7 +1431,7 @@ class Tracer {
       // followed there (lobeDirect), deeper levels' is not.
       if (!last && !sc.hits.empty())
         L += shadeLevel(geo, top, sc.hits, -d, beta_next, level + 1, ls, rng, nrays,
-                        level == 0 ? float(nb) / nbm : 1.0f);
+                        level == 0 ? bsdfShare(chain, geo, portions, wsum, p, nb, nbm, dr.pdf, d) : 1.0f);
     }
     return L;
   }
@@ -1235,7 +1450,7 @@ class Tracer {
   template <class Geometry>
   Rgb lobeDirect(const Geometry& geo, const Material& top, const std::vector<typename Geometry::Portion>& portions,
                  double wsum, Vec3f wo_w, Rgb beta, int nm, float nbm, float nl_eff, bool bounce,
-                 const std::vector<LightSample>& ls, Rng& rng, uint64_t& nrays) const {
+                 const std::vector<LightSample>& ls, Rng& rng, uint64_t& nrays, const Chain* chain) const {
     const GrooveSet& gs = geo.gs;
     const Vec3f origin = aboveGrooves(gs);
     LatinStrata lhs(nm, 3, rng);
@@ -1252,7 +1467,60 @@ class Tracer {
       if (sc.escaped > 0 && dot(d, gs.W) > 0)
         L += beta_k * float(sc.escaped * share) *
              emitterToward(origin, d, float(nbm * p.weight / wsum) * dr.pdf, nl_eff, nrays);
-      if (bounce && !sc.hits.empty()) L += shadeLevel(geo, top, sc.hits, -d, beta_k, 1, ls, rng, nrays, share, true);
+      if (bounce && !sc.hits.empty())
+        L += shadeLevel(geo, top, sc.hits, -d, beta_k, 1, ls, rng, nrays,
+                        bsdfShare(chain, geo, portions, wsum, p, nm, nbm, dr.pdf, d), true);
+    }
+    return L;
+  }
+
+  // The chain's directions (Chain): each from pair j's stratum, its facet's BSDF seen from its
+  // light direction (dropped outside the pair's cone), reversed, then a portion by weight among
+  // those it leaves; the direct light on what it meets, by the balance heuristic against the
+  // portions' nbm BSDF directions (jointDensity).
+  template <class Geometry>
+  Rgb chainDirect(const Geometry& geo, const Material& top, const std::vector<typename Geometry::Portion>& portions,
+                  double wsum, Vec3f wo_w, Rgb beta, float nbm, const Chain& c, const std::vector<LightSample>& ls,
+                  Rng& rng, uint64_t& nrays) const {
+    const GrooveSet& gs = geo.gs;
+    LatinStrata lhs(c.n, 3, rng);
+    const int nk = int(c.pairs.size());
+    Rgb L(0.0f);
+    for (int j = 0; j < c.n; ++j) {
+      const size_t k = size_t(std::min(nk - 1, int((float(j) + rng.uniform()) * float(nk) / float(c.n))));
+      BsdfSample bs;
+      const Chain::Pair& pr = c.pairs[k];
+      if (!sampleBsdf(*pr.m, pr.wl_local, lhs.at(0, j, rng), Vec2f{lhs.at(1, j, rng), lhs.at(2, j, rng)}, bs) ||
+          !(bs.pdf > 0) || bs.wi.z <= 0)
+        continue;
+      const Vec3f v = pr.frame.toWorld(bs.wi);
+      if (dot(v, pr.v0) < pr.cone) continue;  // outside the pair's cone: dropped (Chain::pdf)
+      const Vec3f d = -v;
+      const double wf = facingWeight(geo, portions, d);
+      if (!(wf > 0)) continue;
+      double u = rng.uniformD() * wf, acc = 0;
+      const typename Geometry::Portion* pp = nullptr;
+      for (const auto& q : portions) {
+        if (!(dot(geo.normal(q), d) > 0)) continue;
+        pp = &q;
+        acc += q.weight;
+        if (u < acc) break;
+      }
+      const auto& p = *pp;
+      if (!(p.weight > 0)) continue;
+      const Material& m = facetMaterial(gs, geo.layer(p), top);
+      Frame fr = Frame::fromNormalTangent(geo.normal(p), gs.T);
+      const Vec3f wo = fr.toLocal(wo_w), wi = fr.toLocal(d);
+      if (wo.z <= 0 || wi.z <= 0) continue;
+      const BsdfAt bsdf(m, wo);
+      const Rgb f = bsdf.eval(wi);
+      if (maxComponent(f) <= 0) continue;
+      const auto sc = geo.scatter(p, d);
+      if (sc.hits.empty()) continue;
+      const double density = jointDensity(geo, portions, wsum, p, nbm, bsdf.pdf(wi), c, d);
+      const Rgb beta_k = beta * f * float(double(wi.z) / density);
+      if (!isFinite(beta_k) || maxComponent(beta_k) <= 0) continue;
+      L += shadeLevel(geo, top, sc.hits, -d, beta_k, 1, ls, rng, nrays, 1.0f, true);
     }
     return L;
   }
@@ -1297,7 +1565,7 @@ class Tracer {
       if (!(pl > 0) || (env && maxComponent(Le) <= 0)) return;
       ++nrays;
       bool vis = !occluded(scene, origin, wl, 0.0f, env ? kInf : dist * (1 - 1e-4f));
-      ls.push_back({wl, Le, pl, vis, k});
+      ls.push_back({wl, Le, pl, vis, k, env});
     });
     Rgb L(0.0f);
     for (const GrooveSet& set : sets) {

@@ -1265,7 +1265,7 @@ class Tracer {
           const Vec3f dq = q.frame.toLocal(d0);
           if (dq.z > 0) passed += float(q.p->weight) * q.bsdf.pdf(dq);
         }
-        if (passed * reflectance * maxComponent(l.Le) / pk < least) continue;
+        if (!(passed > 0) || passed * reflectance * maxComponent(l.Le) / pk < least) continue;
         c.pairs.push_back(Chain::Pair{fr, bk, &m, wl, v0, cone});
       }
     }

@@ -1062,13 +1062,30 @@ class Tracer {
     int layer(const Portion& p) const { return gs.surface.pieces()[size_t(p.piece)].layer; }
     double lit(const Portion& p, size_t li) const { return gs.surface.litFraction(p, light[li], li); }
     groove::area::Hits scatter(const Portion& p, Vec3f d) const { return gs.surface.scatter(p, local(d)); }
-    // No chain directions over polygons: their pieces are many (121 on average on
-    // scratched_door), and the chain's density sums over them for every direction.
-    static constexpr bool kChain = false;
-    size_t facets() const { return 0; }
-    bool faces(size_t, const Portion&) const { return false; }
-    Vec3f facetNormal(size_t) const { return gs.W; }
-    int facetLayer(size_t) const { return 0; }
+    // The facets a chain direction may aim at (Chain): the pieces.
+    static constexpr bool kChain = true;
+    size_t facets() const { return gs.surface.pieces().size(); }
+    Vec3f facetNormal(size_t k) const {
+      Vec3d n = gs.surface.pieces()[k].plane.normal();
+      return normalize(gs.T * float(n.x) + gs.B * float(n.y) + gs.W * float(n.z));
+    }
+    int facetLayer(size_t k) const { return gs.surface.pieces()[k].layer; }
+    // Whether piece k and portion p face each other: every piece is a height field with its
+    // normal up, so in front of a piece's plane is above it.
+    bool faces(size_t k, const Portion& p) const {
+      const auto& ps = gs.surface.pieces();
+      if (k == size_t(p.piece)) return false;
+      const groove::area::Piece& a = ps[k];
+      const groove::area::Piece& b = ps[size_t(p.piece)];
+      const double eps = 1e-12;
+      bool a_above = false;
+      for (int i = 0; i < a.poly.n && !a_above; ++i) a_above = a.plane.at(a.poly.v[size_t(i)]) - b.plane.at(a.poly.v[size_t(i)]) > eps;
+      if (!a_above) return false;
+      for (const groove::area::Poly& f : p.frags)
+        for (int i = 0; i < f.n; ++i)
+          if (b.plane.at(f.v[size_t(i)]) - a.plane.at(f.v[size_t(i)]) > eps) return true;
+      return false;
+    }
   };
 
   // Reflected radiance of the footprint over a section (direct light on every visible facet

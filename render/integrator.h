@@ -71,7 +71,7 @@ struct RenderSettings {
   // one pixel wide under the bar light (the accuracy scene seen from 4 times as far), they took
   // the mean S-CIELAB dE of the groove pixels at 1 spp from 3.0 to 2.1 at the same time.
   int groove_lobe_samples = 32;
-  // Chain directions per camera sample at a 1-D section footprint (Tracer::Chain): first-level
+  // Chain directions per camera sample at a groove footprint (Tracer::Chain): first-level
   // directions drawn from a far facet's BSDF as seen from a light, for the light that reaches the
   // camera mirrored by the far facet and passed on by the seen one's lobe tail (a groove's dark
   // wall under a low bar light). Close up under the bar they cut the noise of parallel/bar at

@@ -1239,7 +1239,6 @@ class Tracer {
     }
     // The facets with a sharp lobe that face a seen portion.
     struct Far {
-      size_t k;
       Vec3f N;
       const Material* m;
       float cone;
@@ -1251,7 +1250,7 @@ class Tracer {
       if (cone < 0) continue;
       for (const auto& q : seen) {
         if (!geo.faces(k, *q.p)) continue;
-        far.push_back({k, geo.facetNormal(k), &m, cone});
+        far.push_back({geo.facetNormal(k), &m, cone});
         break;
       }
     }

@@ -1020,18 +1020,15 @@ class Tracer {
     const GrooveSet& gs;
     const groove::Section& sec;
     const std::vector<groove::Shadowing>& shadow;  // per light sample
-    Vec3f normal(const Portion& p) const {
-      Vec2d n2 = sec.normal(size_t(p.facet));
-      return gs.B * float(n2.x) + gs.W * float(n2.y);
-    }
-    int layer(const Portion& p) const { return sec.layer[size_t(p.facet)]; }
+    Vec3f normal(const Portion& p) const { return facetNormal(size_t(p.facet)); }
+    int layer(const Portion& p) const { return facetLayer(size_t(p.facet)); }
     double lit(const Portion& p, size_t li) const { return shadow[li].litFraction(p, gs.fp); }
     groove::Scatter scatter(const Portion& p, Vec3f d) const {
       return groove::scatter(sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
     }
-    // The facets a chain direction may aim at (Chain): every facet of the section, the flat ones
-    // too (a groove's bottom and the plate between grooves also mirror a bar into the walls).
-    static constexpr bool kChain = true;
+    // The facets (a portion lies on one), which a chain direction may aim at (Chain): every facet
+    // of the section, the flat ones too (a groove's bottom and the plate between grooves also
+    // mirror a bar into the walls).
     size_t facets() const { return sec.facets(); }
     Vec3f facetNormal(size_t k) const {
       Vec2d n2 = sec.normal(k);
@@ -1055,15 +1052,11 @@ class Tracer {
     const GrooveSet& gs;
     const std::vector<Vec3d>& light;  // per light sample, in (T, B, W)
     Vec3d local(Vec3f d) const { return Vec3d(dot(d, gs.T), dot(d, gs.B), dot(d, gs.W)); }
-    Vec3f normal(const Portion& p) const {
-      Vec3d n = gs.surface.pieces()[size_t(p.piece)].plane.normal();
-      return normalize(gs.T * float(n.x) + gs.B * float(n.y) + gs.W * float(n.z));
-    }
-    int layer(const Portion& p) const { return gs.surface.pieces()[size_t(p.piece)].layer; }
+    Vec3f normal(const Portion& p) const { return facetNormal(size_t(p.piece)); }
+    int layer(const Portion& p) const { return facetLayer(size_t(p.piece)); }
     double lit(const Portion& p, size_t li) const { return gs.surface.litFraction(p, light[li], li); }
     groove::area::Hits scatter(const Portion& p, Vec3f d) const { return gs.surface.scatter(p, local(d)); }
-    // The facets a chain direction may aim at (Chain): the pieces.
-    static constexpr bool kChain = true;
+    // The facets (a portion lies on one), which a chain direction may aim at (Chain): the pieces.
     size_t facets() const { return gs.surface.pieces().size(); }
     Vec3f facetNormal(size_t k) const {
       Vec3d n = gs.surface.pieces()[k].plane.normal();
@@ -1212,7 +1205,7 @@ class Tracer {
   template <class Geometry>
   bool makeChain(const Geometry& geo, const Material& top, Vec3f wo_w, const std::vector<LightSample>& ls,
                  const std::vector<typename Geometry::Portion>& portions, Rgb direct, Chain& c) const {
-    if (!Geometry::kChain || st_.groove_chain_samples <= 0 || top.kind == MaterialKind::Glass) return false;
+    if (st_.groove_chain_samples <= 0 || top.kind == MaterialKind::Glass) return false;
     const GrooveSet& gs = geo.gs;
     const float wo_t = dot(wo_w, gs.T);
     int best[2] = {-1, -1};

@@ -1290,15 +1290,12 @@ class Tracer {
       if (dot(geo.normal(q), d) > 0) w += q.weight;
     return w;
   }
-  // The joint density of portion p (of weight share p.weight / wsum) and direction d over the
-  // first-level directions: nbm portions' BSDF directions (pdf: p's BSDF density of d) and the
-  // chain's n directions (the chain's density of d, then p by weight among the portions facing d).
-  template <class Geometry>
-  static double jointDensity(const Geometry& geo, const std::vector<typename Geometry::Portion>& portions,
-                             double wsum, const typename Geometry::Portion& p, float nbm, float pdf, const Chain& c,
-                             Vec3f d) {
-    const double wf = facingWeight(geo, portions, d);
-    return double(nbm) * p.weight / wsum * pdf + (wf > 0 ? double(c.n) * c.pdf(d) * p.weight / wf : 0.0);
+  // The joint density of a portion of weight pw (of the portions' wsum) and direction d over the
+  // first-level directions: nbm portions' BSDF directions (pdf: the portion's BSDF density of d)
+  // and the chain's n directions (the chain's density of d, then the portion by weight among those
+  // facing d, of weight wf: facingWeight).
+  static double jointDensity(double pw, double wsum, double wf, float nbm, float pdf, const Chain& c, Vec3f d) {
+    return double(nbm) * pw / wsum * pdf + (wf > 0 ? double(c.n) * c.pdf(d) * pw / wf : 0.0);
   }
   // The share of the direct light on what a portion's BSDF direction d meets that a set of `count`
   // such directions takes: count / nbm without a chain, their part of the joint density with.
@@ -1306,7 +1303,8 @@ class Tracer {
   static float bsdfShare(const Chain* chain, const Geometry& geo, const std::vector<typename Geometry::Portion>& portions,
                          double wsum, const typename Geometry::Portion& p, int count, float nbm, float pdf, Vec3f d) {
     if (!chain) return float(count) / nbm;
-    return float(double(count) * p.weight / wsum * pdf / jointDensity(geo, portions, wsum, p, nbm, pdf, *chain, d));
+    const double wf = facingWeight(geo, portions, d);
+    return float(double(count) * p.weight / wsum * pdf / jointDensity(p.weight, wsum, wf, nbm, pdf, *chain, d));
   }
 
   // Direction j of n drawn from a footprint's portions: the portion by weight (stratum j of the
@@ -1526,7 +1524,7 @@ class Tracer {
       if (maxComponent(f) <= 0) continue;
       const auto sc = geo.scatter(p, d);
       if (sc.hits.empty()) continue;
-      const double density = jointDensity(geo, portions, wsum, p, nbm, bsdf.pdf(wi), c, d);
+      const double density = jointDensity(p.weight, wsum, wf, nbm, bsdf.pdf(wi), c, d);
       const Rgb beta_k = beta * f * float(double(wi.z) / density);
       if (!isFinite(beta_k) || maxComponent(beta_k) <= 0) continue;
       L += shadeLevel(geo, top, sc.hits, -d, beta_k, 1, ls, rng, nrays, 1.0f, true);

@@ -18,7 +18,6 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-double dot2(Vec2d a, Vec2d b) { return a.x * b.x + a.y * b.y; }
 double cross2(Vec2d a, Vec2d b) { return a.x * b.y - a.y * b.x; }
 double clamp01(double v) { return std::min(1.0, std::max(0.0, v)); }
 
@@ -229,7 +228,7 @@ bool validPortion(const Section& s, const Portion& p) {
 
 Vec2d Section::normal(size_t k) const {
   const Vec2d d = pts[k + 1] - pts[k];
-  const double len = std::sqrt(dot2(d, d));
+  const double len = std::sqrt(dot(d, d));
   if (!(len > 0)) return {0, 1};  // zero-length facet (merge never makes one): treat as flat
   return {-d.y / len, d.x / len};
 }
@@ -438,7 +437,7 @@ std::vector<Portion> visible(const Section& s, Vec2d e_bw, const Footprint& fp) 
 double litFraction(const Section& s, const Portion& p, const Footprint& fp, Vec2d l_bw) {
   if (!validPortion(s, p) || !(p.weight > 0)) return 0;
   const size_t k = size_t(p.facet);
-  if (dot2(l_bw, s.normal(k)) <= 0) return 0;  // facet faces away from the light
+  if (dot(l_bw, s.normal(k)) <= 0) return 0;  // facet faces away from the light
   auto lit = [&](double t) {
     return firstHit(s, pointOn(s, p.facet, t), l_bw, k).facet < 0 && l_bw.y >= 0;
   };
@@ -485,7 +484,7 @@ double Shadowing::litFraction(const Portion& p, const Footprint& fp) const {
   const Section& s = *s_;
   if (!validPortion(s, p) || !(p.weight > 0)) return 0;
   const size_t k = size_t(p.facet);
-  if (dot2(l_, s.normal(k)) <= 0) return 0;  // facet faces away from the light
+  if (dot(l_, s.normal(k)) <= 0) return 0;  // facet faces away from the light
   if (from_ == 2) return l_.y == 0 ? groove::litFraction(s, p, fp, l_) : 0.0;  // grazing: exact path
   if (from_ == 0) return 1.0;  // straight up: nothing of a height field is above a point
   const double xa = x_[k], dx = x_[k + 1] - x_[k];
@@ -524,7 +523,7 @@ Scatter scatter(const Section& s, const Portion& p, const Footprint& fp, Vec2d d
   Scatter out;
   if (!validPortion(s, p)) return out;
   const size_t k = size_t(p.facet);
-  if (dot2(d_bw, s.normal(k)) <= 0) return out;
+  if (dot(d_bw, s.normal(k)) <= 0) return out;
 
   std::vector<double> ts;
   std::vector<double> w;

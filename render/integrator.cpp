@@ -872,7 +872,7 @@ class Tracer {
     return !sets.empty();
   }
 
-  static bool parallel(Vec2f a, Vec2f b) { return std::fabs(a.x * b.x + a.y * b.y) >= 0.99939f; }
+  static bool parallel(Vec2f a, Vec2f b) { return std::fabs(dot(a, b)) >= 0.99939f; }
 
   // The polygon surface of every groove near the footprint (crossings and ends, Bosch §4.2.4), in
   // the frame of near[ref]. False when it cannot be built (a degenerate footprint, or more grooves
@@ -1041,8 +1041,7 @@ class Tracer {
       const Vec2d p0 = groove::pointOn(sec, p.facet, p.t0), p1 = groove::pointOn(sec, p.facet, p.t1);
       const Vec2d nk = sec.normal(k), np = sec.normal(size_t(p.facet));
       const double eps = 1e-12;
-      auto d2 = [](Vec2d a, Vec2d b) { return a.x * b.x + a.y * b.y; };
-      return std::max(d2(k0 - p0, np), d2(k1 - p0, np)) > eps && std::max(d2(p0 - k0, nk), d2(p1 - k0, nk)) > eps;
+      return std::max(dot(k0 - p0, np), dot(k1 - p0, np)) > eps && std::max(dot(p0 - k0, nk), dot(p1 - k0, nk)) > eps;
     }
   };
   // Area sampling with polygons at crossings and ends (Bosch §4.2.4).

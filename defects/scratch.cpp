@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 #include <stdexcept>
 
 namespace dg {
@@ -428,6 +430,11 @@ void simplify(const std::vector<Vec2d>& in, size_t i0, size_t i1, double tol, st
   }
 }
 
+double edgeHalfAngle(const ToolSpec& t) {
+  const double g = 0.5 * t.apex_angle_rad;
+  return t.shape == ToolSpec::Shape::Pyramid ? std::atan(std::tan(g) / std::cos(kPi / t.pyramid_faces)) : g;
+}
+
 void validateTool(const ToolSpec& t, double& edge_half_angle) {
   double apex = t.apex_angle_rad;
   if (!(apex >= 10.0 * kPi / 180.0 && apex <= 170.0 * kPi / 180.0))
@@ -435,17 +442,20 @@ void validateTool(const ToolSpec& t, double& edge_half_angle) {
   if (!(t.tip_radius_mm >= 0)) throw std::invalid_argument("scratch tool: tip radius must be >= 0");
   if (t.shape == ToolSpec::Shape::Pyramid && (t.pyramid_faces < 3 || t.pyramid_faces > 64))
     throw std::invalid_argument("scratch tool: a pyramid needs 3 to 64 faces");
-  double g = 0.5 * apex;
-  edge_half_angle = t.shape == ToolSpec::Shape::Pyramid
-                        ? std::atan(std::tan(g) / std::cos(kPi / t.pyramid_faces))
-                        : g;
-  if (!(t.theta_rad >= 0) || t.theta_rad > 0.5 * kPi - edge_half_angle - kPi / 180.0)
-    throw std::invalid_argument(
-        "scratch tool: tilt theta_t must be >= 0 and leave the tip lowest (theta_t < 90 - "
-        "apex/2 - 1 degrees)");
+  edge_half_angle = edgeHalfAngle(t);
+  if (!(t.theta_rad >= 0) || t.theta_rad > maxToolTilt(t)) {
+    std::ostringstream m;
+    m << std::setprecision(4) << "scratch tool: a tilt of " << t.theta_rad * 180.0 / kPi << " degrees would put the "
+      << (t.shape == ToolSpec::Shape::Pyramid ? "pyramid's edge" : "cone's flank") << " below its tip (apex "
+      << apex * 180.0 / kPi << " degrees); expected a tilt in [0, " << std::max(0.0, maxToolTilt(t) * 180.0 / kPi)
+      << "] degrees";
+    throw std::invalid_argument(m.str());
+  }
 }
 
 }  // namespace
+
+double maxToolTilt(const ToolSpec& tool) { return 0.5 * kPi - edgeHalfAngle(tool) - kPi / 180.0; }
 
 std::vector<Vec2d> toolGroove(const ToolSpec& tool, double depth) {
   double edge_g = 0;

@@ -194,6 +194,12 @@ struct ProcessCrossSection {
   double h[2] = {0, 0}, w_inner[2] = {0, 0}, w_outer[2] = {0, 0};
 };
 
+// The largest tilt theta_t (radians) that keeps the tool's tip its lowest point: 90 deg - 1 deg -
+// the half-angle of its steepest generator (apex/2 for a cone; for a pyramid its edge's,
+// atan(tan(apex/2) / cos(pi / faces)), which is steeper than its faces'). Negative when no tilt
+// is allowed (an apex so wide that even the upright tool is within 1 degree of lying flat).
+double maxToolTilt(const ToolSpec& tool);
+
 // The groove the moving tool leaves: the lower envelope of the tilted tool projected along T
 // onto the BW plane (for an upright axisymmetric tool this is the axial slice the digest names),
 // with its lowest point at w = -depth, clipped to w <= 0. Points from b_left to b_right.

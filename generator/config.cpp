@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/fsutil.h"
+#include "defects/scratch.h"
 #include "render/bsdf.h"
 
 namespace dg {
@@ -392,7 +393,9 @@ Field buildSchema() {
                   "Vickers-like pyramid."),
       num("tool_apex_deg", "deg", 100, 10, 170, "Full apex angle of the tool (pyramid: face to face)."),
       num("tool_tip_radius_mm", "mm", 0.002, 0, 5, "Tip radius of a cone tool."),
-      num("tool_tilt_deg", "deg", 0, 0, 80, "Tilt of the tool axis from the surface normal (theta_t)."),
+      num("tool_tilt_deg", "deg", 0, 0, 80,
+          "Tilt of the tool axis from the surface normal (theta_t); at most 89 deg minus the steepest half-angle of the "
+          "tool (a cone's apex/2, a pyramid's edge), so that its tip stays its lowest point."),
       num("tool_tilt_azimuth_deg", "deg", 0, -360, 360,
           "Direction of the tilt from the scratch direction toward its left (phi_t)."),
       num("pileup", "fraction", 0.6, 0, 1, "Share of the groove's volume piled up beside it (1 = "
@@ -805,6 +808,42 @@ class Parser {
   std::vector<InputError>* collect_;
 };
 
+// The largest value a number (constant or distribution) can take.
+double largest(const Dist& d) {
+  switch (d.kind) {
+    case Dist::Kind::Const: return d.constant.get<double>();
+    case Dist::Kind::Uniform:
+    case Dist::Kind::LogUniform: return d.b;
+    case Dist::Kind::Normal: return d.hi;
+    case Dist::Kind::Choice: {
+      double m = -1e300;
+      for (const auto& c : d.choices) m = std::max(m, c.get<double>());
+      return m;
+    }
+  }
+  return 0;
+}
+
+// A scratch group's tool tilt must keep the tip the tool's lowest point (defects/scratch.h,
+// maxToolTilt) for every tilt and apex its distributions can draw: the widest apex with the
+// largest tilt.
+void checkToolTilt(const Parser& p, const Value& d) {
+  const Value& tilt = d["tool_tilt_deg"];
+  const bool pyramid = d["tool"].str() == "pyramid";
+  ToolSpec t;
+  t.shape = pyramid ? ToolSpec::Shape::Pyramid : ToolSpec::Shape::Cone;
+  const double apex = largest(d["tool_apex_deg"].dist);
+  t.apex_angle_rad = apex * kPi / 180.0;
+  const double most = largest(tilt.dist), limit = std::max(0.0, maxToolTilt(t) * 180.0 / kPi);
+  if (most <= limit + 1e-9) return;
+  std::ostringstream m;
+  m << std::setprecision(4) << "'" << tilt.path << "': " << (tilt.isConstant() ? "a tilt of " : "tilts up to ") << most
+    << " deg would put the " << (pyramid ? "pyramid's edges" : "cone's flank") << " below its tip (tool_apex_deg "
+    << (d["tool_apex_deg"].isConstant() ? "" : "up to ") << apex
+    << "); expected at most " << limit << " deg (90 - 1 - the steepest half-angle of the tool)";
+  p.failAt(tilt.line, tilt.column, m.str());
+}
+
 // Rules that involve several fields.
 void crossChecks(const Value& root, const Parser& p) {
   const Value& cam = root["camera"];
@@ -835,6 +874,7 @@ void crossChecks(const Value& root, const Parser& p) {
       if (may_scratch)
         p.failAt(o.line, o.column, "'" + o.path + "': origin 'scratch' needs a group of type scratch in 'defects'");
     }
+    if (d["type"].str() == "scratch" && !d.has("profile_mm")) checkToolTilt(p, d);
     const Value& r = d["region"];
     if (!(r.items[0].num() < r.items[2].num() && r.items[1].num() < r.items[3].num()))
       p.failAt(r.line, r.column, "'" + r.path + "': expected [u0, v0, u1, v1] with u0 < u1 and v0 < v1");

@@ -231,6 +231,16 @@ TEST(ScratchProcess, ToolOrientation) {
   // A tilt that puts the flank under the tip is rejected.
   EXPECT_THROW(deriveCrossSectionForDepth(cone(120, 0, 35, 90), p), std::invalid_argument);
   EXPECT_THROW(deriveCrossSectionForDepth(cone(5), p), std::invalid_argument);
+  // The limit: 90 - 1 - apex/2 for a cone, less for a pyramid, whose edges are steeper than its
+  // faces (apex 136, four faces: edge half-angle atan(tan 68 / cos 45) = 74.05 deg).
+  EXPECT_NEAR(maxToolTilt(cone(120)) / kDeg, 29.0, 1e-9);
+  ToolSpec vick;
+  vick.shape = ToolSpec::Shape::Pyramid;
+  vick.apex_angle_rad = 136 * kDeg;
+  EXPECT_NEAR(maxToolTilt(vick) / kDeg, 89.0 - std::atan(std::tan(68 * kDeg) / std::cos(kPi / 4)) / kDeg, 1e-9);
+  EXPECT_NEAR(maxToolTilt(vick) / kDeg, 14.95, 0.01);
+  EXPECT_NO_THROW(deriveCrossSectionForDepth(cone(120, 0, 28.9), p));
+  EXPECT_THROW(deriveCrossSectionForDepth(cone(120, 0, 29.1), p), std::invalid_argument);
 }
 
 TEST(ScratchProfile, ExplicitPolylineAndLayers) {

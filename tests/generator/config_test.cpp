@@ -119,6 +119,21 @@ TEST(Config, CrossFieldRules) {
   std::string rnd = "part:\n  type: plate\n  width_mm: {uniform: [100, 200]}\nlights:\n  - type: dome\n"
                     "camera:\n  fov_deg: 40\n  position: [0, 0, 500]\n";
   EXPECT_NE(errorOf(rnd).find("must be a constant"), std::string::npos) << errorOf(rnd);
+  // A tool tilt that would put the tool's flank or edge below its tip, named at the tilt with the
+  // limit for that tool; with distributions, for the largest tilt and apex they can draw.
+  auto scratch = [](const std::string& keys) {
+    return std::string(kMinimal) + "defects:\n  - type: scratch\n" + keys;
+  };
+  EXPECT_EQ(errorOf(scratch("    tool_apex_deg: 170\n    tool_tilt_deg: 3.9\n")), "");  // cone: up to 4
+  std::string e = errorOf(scratch("    tool: pyramid\n    tool_apex_deg: 170\n    tool_tilt_deg: 3\n"));
+  EXPECT_NE(e.find("test.yaml:12:20: 'defects[0].tool_tilt_deg': a tilt of 3 deg"), std::string::npos) << e;
+  EXPECT_NE(e.find("expected at most 2.54 deg"), std::string::npos) << e;
+  e = errorOf(scratch("    tool: pyramid\n    tool_apex_deg: {uniform: [100, 140]}\n"
+                      "    tool_tilt_deg: {uniform: [0, 40]}\n"));
+  EXPECT_NE(e.find("tilts up to 40 deg would put the pyramid's edges below its tip (tool_apex_deg up to 140)"),
+            std::string::npos) << e;
+  EXPECT_EQ(errorOf(scratch("    tool_apex_deg: 170\n    tool_tilt_deg: 30\n    profile_mm: [-0.1, 0, 0, -0.05, 0.1, 0]\n")),
+            "");  // an explicit profile does not use the tool
 }
 
 TEST(Config, DistributionsSampleInRangeAndAreRecorded) {

@@ -50,6 +50,9 @@ struct V3 {
 template <class T> inline V3<T> operator*(T s, V3<T> v) { return v * s; }
 template <class T> inline T dot(V2<T> a, V2<T> b) { return a.x * b.x + a.y * b.y; }
 template <class T> inline T dot(V3<T> a, V3<T> b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+// The plane vectors' cross product: the z component of their 3-D one (twice the signed area of the
+// triangle 0, a, b; positive when b lies counterclockwise of a).
+template <class T> inline T cross(V2<T> a, V2<T> b) { return a.x * b.y - a.y * b.x; }
 template <class T> inline V3<T> cross(V3<T> a, V3<T> b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }

@@ -14,7 +14,6 @@ namespace dg {
 namespace {
 
 double dot2(Vec2d a, Vec2d b) { return a.x * b.x + a.y * b.y; }
-double cross2(Vec2d a, Vec2d b) { return a.x * b.y - a.y * b.x; }
 double len2(Vec2d a) { return std::sqrt(dot2(a, a)); }
 
 // Distance from p to the segment [a, b].
@@ -533,7 +532,7 @@ std::vector<Vec2d> toolGroove(const ToolSpec& tool, double depth) {
             [](const Vec2d& a, const Vec2d& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
   std::vector<Vec2d> hull;
   for (const Vec2d& q : proj) {
-    while (hull.size() >= 2 && cross2(hull.back() - hull[hull.size() - 2], q - hull[hull.size() - 2]) <= 0)
+    while (hull.size() >= 2 && cross(hull.back() - hull[hull.size() - 2], q - hull[hull.size() - 2]) <= 0)
       hull.pop_back();
     hull.push_back(q);
   }
@@ -592,7 +591,7 @@ ProcessCrossSection deriveCrossSectionForDepth(const ToolSpec& tool, double dept
   cs.b_right = groove.back().x;
   // A: area between the groove and w = 0 (shoelace of the closed groove polygon).
   double a2 = 0;
-  for (size_t k = 0; k + 1 < groove.size(); ++k) a2 += cross2(groove[k], groove[k + 1]);
+  for (size_t k = 0; k + 1 < groove.size(); ++k) a2 += cross(groove[k], groove[k + 1]);
   cs.groove_area = std::fabs(0.5 * a2);
   // alpha per side: the flank's angle with the surface where it crosses w = 0 (digest §1.4.3.4).
   Vec2d dl = groove[1] - groove[0], dr = groove[groove.size() - 1] - groove[groove.size() - 2];

@@ -18,7 +18,6 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-double cross2(Vec2d a, Vec2d b) { return a.x * b.y - a.y * b.x; }
 double clamp01(double v) { return std::min(1.0, std::max(0.0, v)); }
 
 // ------------------------------------------------------------------------------------------------
@@ -164,11 +163,11 @@ Hit firstHit(const Section& sec, Vec2d P, Vec2d d, size_t skip) {
   for (size_t j = 0; j < sec.facets(); ++j) {
     if (j == skip) continue;
     const Vec2d A = sec.pts[j], e = sec.pts[j + 1] - sec.pts[j];
-    const double den = cross2(d, e);
+    const double den = cross(d, e);
     if (den == 0) continue;  // parallel (or zero-length)
     const Vec2d AP = A - P;
-    const double s = cross2(AP, e) / den;
-    const double u = cross2(AP, d) / den;
+    const double s = cross(AP, e) / den;
+    const double u = cross(AP, d) / den;
     if (s > 0 && u >= 0 && u <= 1 && s < best.s) best = {int(j), s};
   }
   return best;
@@ -177,8 +176,8 @@ Hit firstHit(const Section& sec, Vec2d P, Vec2d d, size_t skip) {
 // Parameter on facet j's line where the line through P along d crosses it (affine in P).
 double lineParam(const Section& sec, size_t j, Vec2d P, Vec2d d) {
   const Vec2d A = sec.pts[j], e = sec.pts[j + 1] - sec.pts[j];
-  const double den = cross2(d, e);
-  return den != 0 ? cross2(A - P, d) / den : 0.0;
+  const double den = cross(d, e);
+  return den != 0 ? cross(A - P, d) / den : 0.0;
 }
 
 // Sorted parameters in [t0, t1] on facet k where the line through some section vertex along d
@@ -189,10 +188,10 @@ double lineParam(const Section& sec, size_t j, Vec2d P, Vec2d d) {
 std::vector<double> breakpoints(const Section& sec, size_t k, Vec2d d, double t0, double t1) {
   std::vector<double> ts{t0, t1};
   // q = cross(d, P) is constant along lines parallel to d, affine along the facet.
-  const double qa = cross2(d, sec.pts[k]), dq = cross2(d, sec.pts[k + 1]) - qa;
+  const double qa = cross(d, sec.pts[k]), dq = cross(d, sec.pts[k + 1]) - qa;
   if (dq != 0)
     for (const Vec2d& V : sec.pts) {
-      const double t = (cross2(d, V) - qa) / dq;
+      const double t = (cross(d, V) - qa) / dq;
       if (t > t0 && t < t1) ts.push_back(t);
     }
   std::sort(ts.begin(), ts.end());

@@ -37,7 +37,6 @@ struct PartTri {
 };
 
 bool uvLess(Vec2d a, Vec2d b) { return std::tie(a.x, a.y) < std::tie(b.x, b.y); }
-double cross2(Vec2d a, Vec2d b) { return a.x * b.y - a.y * b.x; }
 
 // The rotation that takes unit vector a to unit vector b, applied to v (a and b not opposite).
 Vec3d turn(Vec3d a, Vec3d b, Vec3d v) {
@@ -163,7 +162,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
     }
     pt.lo = {std::min({pt.t[0].x, pt.t[1].x, pt.t[2].x}), std::min({pt.t[0].y, pt.t[1].y, pt.t[2].y})};
     pt.hi = {std::max({pt.t[0].x, pt.t[1].x, pt.t[2].x}), std::max({pt.t[0].y, pt.t[1].y, pt.t[2].y})};
-    pt.area2 = cross2(pt.t[1] - pt.t[0], pt.t[2] - pt.t[0]);
+    pt.area2 = cross(pt.t[1] - pt.t[0], pt.t[2] - pt.t[0]);
     const Vec3d g = cross(pt.p[1] - pt.p[0], pt.p[2] - pt.p[0]);
     const double scale = std::max({pt.hi.x - pt.lo.x, pt.hi.y - pt.lo.y, 1e-30});
     // A triangle without UV area or 3-D area carries no scratch (none can be placed on it).
@@ -360,10 +359,10 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
           if (uvLess(B, A)) std::swap(A, B);
           const Vec2d AB = B - A;
           const double len = std::hypot(AB.x, AB.y);
-          const double side = cross2(AB, pt.t[(e + 2) % 3] - A) > 0 ? 1.0 : -1.0;
+          const double side = cross(AB, pt.t[(e + 2) % 3] - A) > 0 ? 1.0 : -1.0;
           const double tol = 1e-12 * (W + H) * len;
           auto edgeF = [&](Vec2d q) {
-            double g = side * cross2(AB, q - A);
+            double g = side * cross(AB, q - A);
             return std::fabs(g) <= tol ? 0.0 : g;
           };
           next.clear();
@@ -410,8 +409,8 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
               n = normalize(pt.n[a] + (pt.n[b] - pt.n[a]) * s);
               return;
             }
-          const double b1 = cross2(v.uv - pt.t[0], pt.t[2] - pt.t[0]) / pt.area2;
-          const double b2 = cross2(pt.t[1] - pt.t[0], v.uv - pt.t[0]) / pt.area2;
+          const double b1 = cross(v.uv - pt.t[0], pt.t[2] - pt.t[0]) / pt.area2;
+          const double b2 = cross(pt.t[1] - pt.t[0], v.uv - pt.t[0]) / pt.area2;
           const double b0 = 1 - b1 - b2;
           p = pt.p[0] * b0 + pt.p[1] * b1 + pt.p[2] * b2;
           n = normalize(pt.n[0] * b0 + pt.n[1] * b1 + pt.n[2] * b2);

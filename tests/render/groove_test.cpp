@@ -21,7 +21,6 @@ namespace {
 // ---------------------------------------------------------------------------------------------
 
 double dot2(Vec2d a, Vec2d b) { return a.x * b.x + a.y * b.y; }
-double cross2(Vec2d a, Vec2d b) { return a.x * b.y - a.y * b.x; }
 Vec2d unitAngle(double theta) { return {std::sin(theta), std::cos(theta)}; }  // from +w
 Vec2d reflect(Vec2d v, Vec2d n) { return v - n * (2.0 * dot2(v, n)); }
 
@@ -56,9 +55,9 @@ int seenFacet(const Section& s, double x, Vec2d e) {
   const Vec2d P{x, 0};
   for (size_t k = 0; k + 1 < s.pts.size(); ++k) {
     const Vec2d A = s.pts[k], d = s.pts[k + 1] - A;
-    const double den = cross2(e, d);
+    const double den = cross(e, d);
     if (den == 0) continue;
-    const double t = cross2(A - P, d) / den, u = cross2(A - P, e) / den;
+    const double t = cross(A - P, d) / den, u = cross(A - P, e) / den;
     if (u >= 0 && u <= 1 && t > best_s) best_s = t, best = int(k);
   }
   return best;
@@ -71,9 +70,9 @@ int castRay(const Section& s, Vec2d P, Vec2d d, int self) {
   for (size_t k = 0; k + 1 < s.pts.size(); ++k) {
     if (int(k) == self) continue;
     const Vec2d A = s.pts[k], e = s.pts[k + 1] - A;
-    const double den = cross2(d, e);
+    const double den = cross(d, e);
     if (den == 0) continue;
-    const double t = cross2(A - P, e) / den, u = cross2(A - P, d) / den;
+    const double t = cross(A - P, e) / den, u = cross(A - P, d) / den;
     if (t > 1e-12 && u >= 0 && u <= 1 && t < best_s) best_s = t, best = int(k);
   }
   return best;
@@ -530,7 +529,7 @@ TEST(Groove, ScatterMatchesBruteForce) {
         // The hit point lies in a returned portion of facet k, which maps it back to the
         // footprint coordinate the ray started from.
         const Vec2d A = sc.sec.pts[size_t(k)], ed = sc.sec.pts[size_t(k) + 1] - A;
-        const double u = cross2(A - P, d) / cross2(d, ed);
+        const double u = cross(A - P, d) / cross(d, ed);
         bool found = false;
         for (const Portion& h : s.hits)
           if (h.facet == k && u >= h.t0 - 1e-9 && u <= h.t1 + 1e-9) {
@@ -582,7 +581,7 @@ TEST(Groove, PointFootprintLightAndScatter) {
       EXPECT_EQ(s.hits[0].weight, 1.0);
       EXPECT_EQ(s.hits[0].t0, s.hits[0].t1);
       const Vec2d Q = pointOn(sc.sec, k, s.hits[0].t0);
-      EXPECT_NEAR(cross2(Q - P, d), 0.0, 1e-9);  // the hit point is on the reflected ray
+      EXPECT_NEAR(cross(Q - P, d), 0.0, 1e-9);  // the hit point is on the reflected ray
       EXPECT_GT(dot2(Q - P, d), 0.0);
       ++hit;
     }

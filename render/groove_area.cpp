@@ -63,7 +63,7 @@ struct BBox {
   bool overlaps(const BBox& o) const { return lo.x <= o.hi.x && o.lo.x <= hi.x && lo.y <= o.hi.y && o.lo.y <= hi.y; }
 };
 
-void reverse(Poly& p) { std::reverse(p.v.begin(), p.v.begin() + p.n); }
+void reverse(Poly& p) { std::reverse(p.v, p.v + p.n); }
 
 // Below this (mm^2) a piece or fragment is dropped as a sliver.
 constexpr double kSliver = 1e-16;
@@ -268,9 +268,12 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
     int layer[kMaxGrooves];
     bool zero[kMaxGrooves];
   };
-  std::vector<Cell> cells(1), next;
+  // Reused between calls: at the caps the cells take megabytes, and fresh buffers for every
+  // footprint cost more in page faults than the clipping does.
+  thread_local std::vector<Cell> cells, next;
+  thread_local std::vector<Zone> zones;
+  cells.assign(1, Cell{});
   cells[0].poly = region;
-  std::vector<Zone> zones;
   const size_t cell_cap = 4 * kMaxPieces;
   for (size_t gi = 0; gi < grooves.size(); ++gi) {
     const Groove& g = grooves[gi];
@@ -294,9 +297,9 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
       if (inside)
         for (const Zone& z : zones) overlapping += z.across && z.ulo <= umax && z.uhi >= umin;
       for (const Zone& z : zones) {
+        if (inside && (!z.across || z.ulo > umax || z.uhi < umin)) continue;
         Poly p = c.poly;
         if (inside) {
-          if (!z.across || z.ulo > umax || z.uhi < umin) continue;
           if (overlapping > 1)
             for (int k = z.n_inside; k < z.nh && !p.empty(); ++k) p = clip(p, z.h[k].a, z.h[k].c);
         } else {

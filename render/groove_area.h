@@ -25,6 +25,7 @@
 #pragma once
 #include <array>
 #include <cstddef>
+#include <cstring>
 #include <vector>
 
 #include "core/math.h"
@@ -34,8 +35,20 @@ namespace dg::groove::area {
 // A convex polygon in the plane, counter-clockwise, with at most kMaxVertices vertices.
 struct Poly {
   static constexpr int kMaxVertices = 40;
-  std::array<Vec2d, kMaxVertices> v;
+  // The vertices v[0 .. n-1]; the rest is left uninitialised (a union member), and copies take
+  // the n vertices only: the clipping makes and copies polygons at every step (most have 3 to 8
+  // vertices), and zeroing and copying whole 640-byte arrays was most of its time.
+  union {
+    Vec2d v[kMaxVertices];
+  };
   int n = 0;
+  Poly() {}
+  Poly(const Poly& o) : n(o.n) { std::memcpy(v, o.v, sizeof(Vec2d) * size_t(o.n)); }
+  Poly& operator=(const Poly& o) {
+    if (this != &o) std::memcpy(v, o.v, sizeof(Vec2d) * size_t(o.n));
+    n = o.n;
+    return *this;
+  }
   bool empty() const { return n < 3; }
   double area() const;  // signed (> 0 counter-clockwise)
   // Grows the box [lo, hi] to hold every vertex.

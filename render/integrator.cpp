@@ -892,7 +892,7 @@ class Tracer {
     fp.push((a1 - a2) * 0.5);
     fp.push((a1 + a2) * 0.5);
     fp.push((a2 - a1) * 0.5);
-    if (fp.area() < 0) std::reverse(fp.v.begin(), fp.v.begin() + fp.n);
+    if (fp.area() < 0) std::reverse(fp.v, fp.v + fp.n);
     if (!(fp.area() > 1e-16)) return false;
     Vec2d lo = fp.v[0], hi = fp.v[0];
     fp.extend(lo, hi);

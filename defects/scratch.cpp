@@ -13,14 +13,13 @@ namespace dg {
 
 namespace {
 
-double dot2(Vec2d a, Vec2d b) { return a.x * b.x + a.y * b.y; }
-double len2(Vec2d a) { return std::sqrt(dot2(a, a)); }
+double len2(Vec2d a) { return std::sqrt(dot(a, a)); }
 
 // Distance from p to the segment [a, b].
 double segDist(Vec2d p, Vec2d a, Vec2d b) {
   Vec2d d = b - a;
-  double l2 = dot2(d, d);
-  double t = l2 > 0 ? std::clamp(dot2(p - a, d) / l2, 0.0, 1.0) : 0.0;
+  double l2 = dot(d, d);
+  double t = l2 > 0 ? std::clamp(dot(p - a, d) / l2, 0.0, 1.0) : 0.0;
   return len2(p - (a + d * t));
 }
 
@@ -442,11 +441,12 @@ void validateTool(const ToolSpec& t, double& edge_half_angle) {
   if (t.shape == ToolSpec::Shape::Pyramid && (t.pyramid_faces < 3 || t.pyramid_faces > 64))
     throw std::invalid_argument("scratch tool: a pyramid needs 3 to 64 faces");
   edge_half_angle = edgeHalfAngle(t);
-  if (!(t.theta_rad >= 0) || t.theta_rad > maxToolTilt(t)) {
+  const double limit = maxToolTilt(t);
+  if (!(t.theta_rad >= 0) || t.theta_rad > limit) {
     std::ostringstream m;
     m << std::setprecision(4) << "scratch tool: a tilt of " << t.theta_rad * 180.0 / kPi << " degrees would put the "
       << (t.shape == ToolSpec::Shape::Pyramid ? "pyramid's edge" : "cone's flank") << " below its tip (apex "
-      << apex * 180.0 / kPi << " degrees); expected a tilt in [0, " << std::max(0.0, maxToolTilt(t) * 180.0 / kPi)
+      << apex * 180.0 / kPi << " degrees); expected a tilt in [0, " << std::max(0.0, limit * 180.0 / kPi)
       << "] degrees";
     throw std::invalid_argument(m.str());
   }

@@ -23,7 +23,6 @@
 // of one portion is capped (kMaxFragments); past it the smallest are dropped (`overflow` counts
 // it), so the cost per footprint stays bounded.
 #pragma once
-#include <array>
 #include <cstddef>
 #include <cstring>
 #include <vector>

@@ -20,9 +20,8 @@ namespace {
 // Helpers (independent of the implementation under test)
 // ---------------------------------------------------------------------------------------------
 
-double dot2(Vec2d a, Vec2d b) { return a.x * b.x + a.y * b.y; }
 Vec2d unitAngle(double theta) { return {std::sin(theta), std::cos(theta)}; }  // from +w
-Vec2d reflect(Vec2d v, Vec2d n) { return v - n * (2.0 * dot2(v, n)); }
+Vec2d reflect(Vec2d v, Vec2d n) { return v - n * (2.0 * dot(v, n)); }
 
 struct Prof {
   std::vector<Vec2d> pts;
@@ -393,7 +392,7 @@ TEST(Groove, LitFractionMatchesBruteForce) {
       const double f = litFraction(sc.sec, p, fp, l);
       ASSERT_GE(f, 0.0);
       ASSERT_LE(f, 1.0);
-      const bool facing = dot2(l, sc.sec.normal(size_t(p.facet))) > 0;
+      const bool facing = dot(l, sc.sec.normal(size_t(p.facet))) > 0;
       double lit = 0, all = 0;
       for (int i = 0; i < n; ++i) {
         const double t = p.t0 + (p.t1 - p.t0) * (i + 0.5) / n;
@@ -431,7 +430,7 @@ TEST(Groove, ShadowingMatchesLitFraction) {
     std::vector<Portion> ps = visible(sc.sec, e, fp);
     // Portions hit after a reflection too (their x range runs differently from their t range).
     for (const Portion& p : visible(sc.sec, e, fp)) {
-      const Vec2d d = reflect(e * (-1.0 / std::sqrt(dot2(e, e))), sc.sec.normal(size_t(p.facet)));
+      const Vec2d d = reflect(e * (-1.0 / std::sqrt(dot(e, e))), sc.sec.normal(size_t(p.facet)));
       for (const Portion& h : scatter(sc.sec, p, fp, d).hits) ps.push_back(h);
     }
     for (const Portion& p : ps) {
@@ -495,10 +494,10 @@ TEST(Groove, ScatterMatchesBruteForce) {
     for (const Portion& p : visible(sc.sec, e, fp)) {
       // Mirror reflection of the view ray (towards the surface: -e) off the facet.
       const Vec2d nrm = sc.sec.normal(size_t(p.facet));
-      const Vec2d ee = e * (1.0 / std::sqrt(dot2(e, e)));
+      const Vec2d ee = e * (1.0 / std::sqrt(dot(e, e)));
       const Vec2d d = rnd(0, 1) < 0.7 ? reflect(ee * -1.0, nrm) : unitAngle(rnd(-3.1, 3.1));
       const Scatter s = scatter(sc.sec, p, fp, d);
-      if (dot2(d, nrm) <= 0) {
+      if (dot(d, nrm) <= 0) {
         EXPECT_TRUE(s.hits.empty());
         EXPECT_EQ(s.escaped, 0.0);
         continue;
@@ -512,7 +511,7 @@ TEST(Groove, ScatterMatchesBruteForce) {
         ASSERT_LE(h.t0, h.t1);
         ASSERT_LE(h.t1, 1.0);
         // Hit facets face the incoming rays.
-        EXPECT_LT(dot2(d, sc.sec.normal(size_t(h.facet))), 1e-12);
+        EXPECT_LT(dot(d, sc.sec.normal(size_t(h.facet))), 1e-12);
       }
       EXPECT_NEAR(sum, p.weight, 1e-12);
       std::map<int, double> brute;
@@ -564,11 +563,11 @@ TEST(Groove, PointFootprintLightAndScatter) {
     const Vec2d P = pointOn(sc.sec, p.facet, p.t0);
     const Vec2d nrm = sc.sec.normal(size_t(p.facet));
     const Vec2d l = unitAngle(rnd(-1.5, 1.5));
-    const bool open = dot2(l, nrm) > 0 && castRay(sc.sec, P, l, p.facet) < 0;
+    const bool open = dot(l, nrm) > 0 && castRay(sc.sec, P, l, p.facet) < 0;
     const double f = litFraction(sc.sec, p, fp, l);
     EXPECT_EQ(f, open ? 1.0 : 0.0);
     (open ? lit : dark)++;
-    const Vec2d d = reflect(e * (-1.0 / std::sqrt(dot2(e, e))), nrm);
+    const Vec2d d = reflect(e * (-1.0 / std::sqrt(dot(e, e))), nrm);
     const Scatter s = scatter(sc.sec, p, fp, d);
     const int k = castRay(sc.sec, P, d, p.facet);
     if (k < 0) {
@@ -582,7 +581,7 @@ TEST(Groove, PointFootprintLightAndScatter) {
       EXPECT_EQ(s.hits[0].t0, s.hits[0].t1);
       const Vec2d Q = pointOn(sc.sec, k, s.hits[0].t0);
       EXPECT_NEAR(cross(Q - P, d), 0.0, 1e-9);  // the hit point is on the reflected ray
-      EXPECT_GT(dot2(Q - P, d), 0.0);
+      EXPECT_GT(dot(Q - P, d), 0.0);
       ++hit;
     }
   }

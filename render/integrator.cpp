@@ -1227,7 +1227,7 @@ class Tracer {
       const Vec3f N = geo.normal(q);
       const Material& m = facetMaterial(gs, geo.layer(q), top);
       const Frame fr = Frame::fromNormalTangent(N, gs.T);
-      seen.push_back({&q, N, N * (2 * dot(wo_w, N)) - wo_w, lobeCone(m), fr, BsdfAt(m, fr.toLocal(wo_w))});
+      seen.push_back({&q, N, reflect(-wo_w, N), lobeCone(m), fr, BsdfAt(m, fr.toLocal(wo_w))});
     }
     // The facets with a sharp lobe that face a seen portion.
     struct Far {
@@ -1255,7 +1255,7 @@ class Tracer {
         if (dot(N, l.wl) <= 0) continue;
         const Material& m = *fk.m;
         const float cone = fk.cone;
-        const Vec3f v0 = N * (2 * dot(l.wl, N)) - l.wl, d0 = -v0;
+        const Vec3f v0 = reflect(-l.wl, N), d0 = -v0;
         bool covered = false;
         for (const auto& q : seen)
           if (dot(q.N, d0) > 0) covered = covered || q.cone < 0 || dot(d0, q.mirror) >= q.cone;

@@ -290,13 +290,10 @@ std::vector<size_t> scratchedPixels(const Dataset& ds) {
   return px;
 }
 
-// Over `runs` renders with the noise seeds seed0, seed0 + 1, ..., after `tweak(settings)`: the
-// pixels px's total (their sum over channels of the mean over the runs) and, returned, the
-// variance of a pixel between runs (mean over px and channels). With `dim`, only the pixels whose
-// mean (over channels) is below *dim count in the variance.
+// The RGB of `runs` renders of the dataset's first sample with the noise seeds seed0, seed0 + 1,
+// ..., after `tweak(settings)` has set what a test varies.
 template <class Tweak>
-double pixelStats(const Dataset& ds, const std::vector<size_t>& px, int runs, uint64_t seed0, Tweak tweak,
-                  double& total, const std::vector<bool>* dim = nullptr, std::vector<double>* means = nullptr) {
+std::vector<std::vector<float>> rendersOverSeeds(const Dataset& ds, int runs, uint64_t seed0, Tweak tweak) {
   std::vector<std::vector<float>> imgs;
   for (int r = 0; r < runs; ++r) {
     Sample s = makeSample(ds, 1, 0);
@@ -304,6 +301,17 @@ double pixelStats(const Dataset& ds, const std::vector<size_t>& px, int runs, ui
     s.settings.seed = seed0 + uint64_t(r);
     imgs.push_back(render(s.scene, s.settings).rgb.data);
   }
+  return imgs;
+}
+
+// Over `runs` renders with the noise seeds seed0, seed0 + 1, ..., after `tweak(settings)`: the
+// pixels px's total (their sum over channels of the mean over the runs) and, returned, the
+// variance of a pixel between runs (mean over px and channels). With `dim`, only the pixels whose
+// mean (over channels) is below *dim count in the variance.
+template <class Tweak>
+double pixelStats(const Dataset& ds, const std::vector<size_t>& px, int runs, uint64_t seed0, Tweak tweak,
+                  double& total, const std::vector<bool>* dim = nullptr, std::vector<double>* means = nullptr) {
+  const std::vector<std::vector<float>> imgs = rendersOverSeeds(ds, runs, seed0, tweak);
   double var = 0;
   size_t counted = 0;
   total = 0;
@@ -426,14 +434,7 @@ double relativeNoise(const std::vector<std::vector<float>>& imgs) {
 // ..., after `tweak(settings)` has set what the test varies.
 template <class Tweak>
 double noiseOverSeeds(const Dataset& ds, uint64_t seed0, Tweak tweak) {
-  std::vector<std::vector<float>> imgs;
-  for (int r = 0; r < 8; ++r) {
-    Sample s = makeSample(ds, 1, 0);
-    tweak(s.settings);
-    s.settings.seed = seed0 + uint64_t(r);
-    imgs.push_back(render(s.scene, s.settings).rgb.data);
-  }
-  return relativeNoise(imgs);
+  return relativeNoise(rendersOverSeeds(ds, 8, seed0, tweak));
 }
 
 }  // namespace
@@ -481,16 +482,9 @@ TEST(Render, PixelPatternLowersThePathTracersNoise) {
     mean1 += imageMean(render(s.scene, s.settings).rgb.data) / 1024;
   }
   for (auto [spp, limit] : {std::pair{16, 0.06}, {64, 0.015}}) {
-    const int runs = 8;
-    std::vector<std::vector<float>> imgs;
+    const std::vector<std::vector<float>> imgs = rendersOverSeeds(ds, 8, 700, [spp = spp](RenderSettings& st) { st.spp = spp; });
     double mean = 0;
-    for (int r = 0; r < runs; ++r) {
-      Sample s = makeSample(ds, 1, 0);
-      s.settings.spp = spp;
-      s.settings.seed = 700 + uint64_t(r);
-      imgs.push_back(render(s.scene, s.settings).rgb.data);
-      mean += imageMean(imgs.back()) / runs;
-    }
+    for (const auto& im : imgs) mean += imageMean(im) / double(imgs.size());
     EXPECT_NEAR(mean / mean1, 1.0, 0.005) << spp << " spp";
     const double rel = relativeNoise(imgs);
     std::printf("[          ] %d spp: relative noise %.4f, image mean / 1-spp mean %.4f\n", spp, rel, mean / mean1);

@@ -77,13 +77,15 @@ const MetalIor* findMetal(const std::string& name) {
 // a^2 and b^2 are each taken from whichever of the two equivalent expressions does not subtract
 // nearly equal numbers (0.5 (t + A) = 2 n^2 k^2 / (t - A)). With k = 0 and n < 1 past the critical
 // angle this gives a = 0 and Rs = Rp = 1, i.e. total internal reflection comes out by itself.
-float fresnelConductor(float cos_i, float eta, float k) {
+namespace {
+// fresnelConductor with its angle-independent terms given: a0 = n^2 - k^2 - 1 (as (n - 1)(n + 1) -
+// k^2) and nk2 = n^2 k^2 (BsdfAt computes them once per shading point).
+inline float conductorFresnel(float cos_i, float a0, float nk2) {
   const float c = clampf(cos_i, 0.0f, 1.0f);
   const float c2 = c * c;
   const float s2 = 1.0f - c2;
   // A = n^2 - k^2 - s^2 with s^2 = 1 - c^2, grouped so that n -> 1 loses no precision.
-  const float A = (eta - 1.0f) * (eta + 1.0f) - k * k + c2;
-  const float nk2 = eta * eta * k * k;
+  const float A = a0 + c2;
   const float t = std::sqrt(A * A + 4.0f * nk2);  // a^2 + b^2
   const float a2 = A >= 0.0f ? 0.5f * (t + A) : 2.0f * nk2 / (t - A);
   const float b2 = A <= 0.0f ? 0.5f * (t - A) : 2.0f * nk2 / (t + A);
@@ -95,6 +97,13 @@ float fresnelConductor(float cos_i, float eta, float k) {
   const float p_den = (a * c + s2) * (a * c + s2) + b2 * c2;
   const float rp = p_den > 0.0f ? rs * (p_num / p_den) : rs;  // p_den = 0 only when s = 0 and a = 0
   return 0.5f * (rs + rp);
+}
+inline float conductorA0(float eta, float k) { return (eta - 1.0f) * (eta + 1.0f) - k * k; }
+inline float conductorNk2(float eta, float k) { return eta * eta * k * k; }
+}  // namespace
+
+float fresnelConductor(float cos_i, float eta, float k) {
+  return conductorFresnel(cos_i, conductorA0(eta, k), conductorNk2(eta, k));
 }
 
 Rgb fresnelConductor(float cos_i, Rgb eta, Rgb k) {
@@ -619,37 +628,114 @@ inline bool sampleGlassDirection(const Material& m, Vec3f wo, float u0, Vec2f u,
 }  // namespace
 
 BsdfAt::BsdfAt(const Material& m, Vec3f wo) : m_(m), wo_(wo) {
-  if (!(wo.z > 0.0f) || m.kind == MaterialKind::RoughDiffuse) return;
+  if (!(wo.z > 0.0f)) return;
   const LobeProbs lp = lobeProbs(m, wo);
   for (int i = 0; i < 3; ++i) lobe_[i] = lp.p[i];
-  if (m.kind == MaterialKind::Plastic) through_wo_ = 1.0f - fresnelDielectric(wo.z, m.ior);
-  if (m.kind == MaterialKind::CarPaint) through_wo_ = 1.0f - fresnelDielectric(wo.z, m.coat_ior);
+  switch (m.kind) {
+    case MaterialKind::Conductor:
+      fa_ = Rgb(conductorA0(m.eta.x, m.k.x), conductorA0(m.eta.y, m.k.y), conductorA0(m.eta.z, m.k.z));
+      fnk2_ = Rgb(conductorNk2(m.eta.x, m.k.x), conductorNk2(m.eta.y, m.k.y), conductorNk2(m.eta.z, m.k.z));
+      alpha_ = alphaOf(m.roughness);
+      break;
+    case MaterialKind::Plastic:
+      through_wo_ = 1.0f - fresnelDielectric(wo.z, m.ior);
+      alpha_ = alphaOf(m.roughness);
+      break;
+    case MaterialKind::CarPaint:
+      through_wo_ = 1.0f - fresnelDielectric(wo.z, m.coat_ior);
+      alpha_ = alphaOf(m.coat_roughness);
+      break;
+    case MaterialKind::RoughDiffuse:
+    case MaterialKind::Glass:
+      return;
+  }
+  lambda_wo_ = smithLambda(m.model, alpha_, wo);
 }
 
-Rgb BsdfAt::eval(Vec3f wi) const {
+Rgb BsdfAt::eval(Vec3f wi) const { return evalImpl(wi, nullptr); }
+
+float BsdfAt::pdf(Vec3f wi) const {
   const Material& m = m_;
   const Vec3f wo = wo_;
-  if (m.kind == MaterialKind::Glass) return Rgb(glassEval(m, wo, wi));
-  if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return Rgb(0.0f);
-  if (m.kind == MaterialKind::RoughDiffuse)  // needs no half vector
+  if (m.kind == MaterialKind::Glass) return glassPdf(m, wo, wi);
+  if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return 0.0f;
+  if (m.kind == MaterialKind::RoughDiffuse) return wi.z * kInvPiF;  // cosine-weighted only
+  const Vec3f h = normalize(wo + wi);
+  return pdfImpl(wi, h, lobe_[kSpec] > 0.0f ? ndf(m.model, alpha_, h) : 0.0f);
+}
+
+Rgb BsdfAt::evalPdf(Vec3f wi, float& pdf) const { return evalImpl(wi, &pdf); }
+
+// The lobes' mixture density of wi, with h = normalize(wo + wi) and the specular lobe's D(h) given.
+float BsdfAt::pdfImpl(Vec3f wi, Vec3f h, float d_spec) const {
+  const Material& m = m_;
+  const Vec3f wo = wo_;
+  float pdf = 0.0f;
+  if (lobe_[kSpec] > 0.0f) {
+    // microfacetPdf with the cached Lambda(wo): G1(wo) = 1 / (1 + Lambda(wo)).
+    float p = 0.0f;
+    if (m.model == MicrofacetModel::GGX) {
+      p = d_spec * (1.0f / (1.0f + lambda_wo_)) / (4.0f * wo.z);
+    } else {
+      const float oh = dot(wo, h);
+      p = oh > 0.0f ? d_spec * h.z / (4.0f * oh) : 0.0f;
+    }
+    pdf += lobe_[kSpec] * p;
+  }
+  if (lobe_[kDiffuse] > 0.0f) pdf += lobe_[kDiffuse] * wi.z * kInvPiF;
+  if (lobe_[kFlake] > 0.0f) {
+    if (m.flake_normal.z < 1.0f) {
+      const Frame ff = Frame::fromNormal(m.flake_normal);
+      const Vec3f o = ff.toLocal(wo), i = ff.toLocal(wi);
+      if (o.z > 0.0f && i.z > 0.0f)
+        pdf += lobe_[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), o, normalize(o + i));
+    } else {
+      pdf += lobe_[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), wo, h);
+    }
+  }
+  return pdf;
+}
+
+Rgb BsdfAt::evalImpl(Vec3f wi, float* pdf) const {
+  const Material& m = m_;
+  const Vec3f wo = wo_;
+  if (m.kind == MaterialKind::Glass) {
+    if (pdf) *pdf = glassPdf(m, wo, wi);
+    return Rgb(glassEval(m, wo, wi));
+  }
+  if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) {
+    if (pdf) *pdf = 0.0f;
+    return Rgb(0.0f);
+  }
+  if (m.kind == MaterialKind::RoughDiffuse) {  // needs no half vector
+    if (pdf) *pdf = wi.z * kInvPiF;
     return orenNayar(clamp01(m.base_color), m.sigma, wo, wi);
+  }
   Vec3f h;
   float cos_oh;
-  if (!reflectionHalf(wo, wi, h, cos_oh)) return Rgb(0.0f);
+  if (!reflectionHalf(wo, wi, h, cos_oh)) {
+    if (pdf) *pdf = this->pdf(wi);
+    return Rgb(0.0f);
+  }
+  // The specular lobe's D(h) and D G2 / (4 cos_o cos_i) (microfacetReflection with the cached
+  // Lambda(wo)); h is normalize(wo + wi) to the bit, so pdf() would find the same D.
+  const float d = ndf(m.model, alpha_, h);
+  if (pdf) *pdf = pdfImpl(wi, h, d);
+  const float den = 4.0f * wo.z * wi.z;
+  const float spec_mf =
+      den > 0.0f ? d * (1.0f / (1.0f + (lambda_wo_ + smithLambda(m.model, alpha_, wi)))) / den : 0.0f;
   switch (m.kind) {
-    case MaterialKind::Conductor: {
-      const float mf = microfacetReflection(m.model, alphaOf(m.roughness), wo, wi, h);
-      return fresnelConductor(cos_oh, m.eta, m.k) * mf;
-    }
+    case MaterialKind::Conductor:
+      return Rgb(conductorFresnel(cos_oh, fa_.x, fnk2_.x), conductorFresnel(cos_oh, fa_.y, fnk2_.y),
+                 conductorFresnel(cos_oh, fa_.z, fnk2_.z)) *
+             spec_mf;
     case MaterialKind::Plastic: {
-      const float spec = fresnelDielectric(cos_oh, m.ior) *
-                         microfacetReflection(m.model, alphaOf(m.roughness), wo, wi, h);
+      const float spec = fresnelDielectric(cos_oh, m.ior) * spec_mf;
       const float through = (1.0f - fresnelDielectric(wi.z, m.ior)) * through_wo_;
       return clamp01(m.base_color) * (through * kInvPiF) + Rgb(spec);
     }
     case MaterialKind::CarPaint: {
-      const float spec = fresnelDielectric(cos_oh, m.coat_ior) *
-                         microfacetReflection(m.model, alphaOf(m.coat_roughness), wo, wi, h);
+      const float spec = fresnelDielectric(cos_oh, m.coat_ior) * spec_mf;
       const float through = (1.0f - fresnelDielectric(wi.z, m.coat_ior)) * through_wo_;
       const float fa = clampf(m.flake_amount, 0.0f, 1.0f);
       const Rgb base = clamp01(m.base_color);
@@ -677,56 +763,36 @@ Rgb BsdfAt::eval(Vec3f wi) const {
   return Rgb(0.0f);
 }
 
-float BsdfAt::pdf(Vec3f wi) const {
-  const Material& m = m_;
-  const Vec3f wo = wo_;
-  if (m.kind == MaterialKind::Glass) return glassPdf(m, wo, wi);
-  if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return 0.0f;
-  if (m.kind == MaterialKind::RoughDiffuse) return wi.z * kInvPiF;  // cosine-weighted only
-  const Vec3f h = normalize(wo + wi);
-  const float spec_alpha =
-      alphaOf(m.kind == MaterialKind::CarPaint ? m.coat_roughness : m.roughness);
-  float pdf = 0.0f;
-  if (lobe_[kSpec] > 0.0f) pdf += lobe_[kSpec] * microfacetPdf(m.model, spec_alpha, wo, h);
-  if (lobe_[kDiffuse] > 0.0f) pdf += lobe_[kDiffuse] * wi.z * kInvPiF;
-  if (lobe_[kFlake] > 0.0f) {
-    if (m.flake_normal.z < 1.0f) {
-      const Frame ff = Frame::fromNormal(m.flake_normal);
-      const Vec3f o = ff.toLocal(wo), i = ff.toLocal(wi);
-      if (o.z > 0.0f && i.z > 0.0f)
-        pdf += lobe_[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), o, normalize(o + i));
-    } else {
-      pdf += lobe_[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), wo, h);
-    }
-  }
-  return pdf;
-}
-
 Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi) { return BsdfAt(m, wo).eval(wi); }
 
 float pdfBsdf(const Material& m, Vec3f wo, Vec3f wi) { return BsdfAt(m, wo).pdf(wi); }
 
 bool sampleBsdf(const Material& m, Vec3f wo, float u0, Vec2f u, BsdfSample& out) {
+  return BsdfAt(m, wo).sample(u0, u, out);
+}
+
+bool BsdfAt::sample(float u0, Vec2f u, BsdfSample& out) const {
+  const Material& m = m_;
+  const Vec3f wo = wo_;
   if (!(wo.z > 0.0f)) return false;
   if (m.kind == MaterialKind::Glass) {
     Vec3f wi;
     if (!sampleGlassDirection(m, wo, u0, u, wi)) return false;
-    // f and pdf as BsdfAt gives them for this wi, so that both routes agree to the bit.
+    // f and pdf as eval() and pdf() give them for this wi, so that both routes agree to the bit.
     out.wi = wi;
     out.pdf = glassPdf(m, wo, wi);
     if (!(out.pdf > 0.0f) || !std::isfinite(out.pdf)) return false;
     out.f = Rgb(glassEval(m, wo, wi));
     return true;
   }
-  const LobeProbs lp = lobeProbs(m, wo);
   // Pick the first lobe whose cumulative probability exceeds u0; rounding leftovers go to the last
   // lobe that can be picked at all.
   int lobe = -1;
   float cdf = 0.0f;
   for (int i = 0; i < 3; ++i) {
-    if (lp.p[i] <= 0.0f) continue;
+    if (lobe_[i] <= 0.0f) continue;
     lobe = i;
-    cdf += lp.p[i];
+    cdf += lobe_[i];
     if (u0 < cdf) break;
   }
   if (lobe < 0) return false;
@@ -738,11 +804,7 @@ bool sampleBsdf(const Material& m, Vec3f wo, float u0, Vec2f u, BsdfSample& out)
     const float phi = 2.0f * kPiF * u.y;
     wi = Vec3f(r * std::cos(phi), r * std::sin(phi), safeSqrt(1.0f - u.x));
   } else {
-    float alpha;
-    if (lobe == kFlake)
-      alpha = alphaOf(m.flake_roughness);
-    else
-      alpha = alphaOf(m.kind == MaterialKind::CarPaint ? m.coat_roughness : m.roughness);
+    const float alpha = lobe == kFlake ? alphaOf(m.flake_roughness) : alpha_;
     Vec3f h;
     if (lobe == kFlake && m.flake_normal.z < 1.0f) {
       const Frame ff = Frame::fromNormal(m.flake_normal);
@@ -756,11 +818,8 @@ bool sampleBsdf(const Material& m, Vec3f wo, float u0, Vec2f u, BsdfSample& out)
   }
   if (!(wi.z > 0.0f)) return false;
   out.wi = wi;
-  const BsdfAt at(m, wo);
-  out.pdf = at.pdf(wi);
-  if (!(out.pdf > 0.0f) || !std::isfinite(out.pdf)) return false;
-  out.f = at.eval(wi);
-  return true;
+  out.f = evalPdf(wi, out.pdf);
+  return out.pdf > 0.0f && std::isfinite(out.pdf);
 }
 
 }  // namespace dg

@@ -91,20 +91,32 @@ Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi);
 float pdfBsdf(const Material& m, Vec3f wo, Vec3f wi);
 
 // The BSDF at one shading point seen from a fixed outgoing direction wo: what depends on wo alone
-// (the lobe-selection probabilities, the coat's transmission toward wo) is computed once, so that
-// many incident directions (light samples) cost less. evalBsdf() and pdfBsdf() are built on it,
-// so the values are the same to the bit. The material must outlive it.
+// (the lobe-selection probabilities, the coat's transmission toward wo, the specular lobe's alpha
+// and Smith Lambda(wo), a conductor's Fresnel terms that do not depend on the angle) is computed
+// once, so that many incident directions (light samples) cost less. evalBsdf(), pdfBsdf() and
+// sampleBsdf() are built on it, and evalPdf() shares the half vector and the distribution's value
+// between the two, so the values are the same to the bit whichever route computes them. The
+// material must outlive it.
 class BsdfAt {
  public:
   BsdfAt(const Material& m, Vec3f wo);
   Rgb eval(Vec3f wi) const;
   float pdf(Vec3f wi) const;
+  Rgb evalPdf(Vec3f wi, float& pdf) const;  // eval(wi), with pdf(wi) into `pdf`
+  // u0 chooses a lobe (glass: reflection or refraction), u the direction; as sampleBsdf().
+  bool sample(float u0, Vec2f u, BsdfSample& out) const;
 
  private:
+  // eval and pdf at once; `pdf` may be null (eval alone).
+  Rgb evalImpl(Vec3f wi, float* pdf) const;
+  float pdfImpl(Vec3f wi, Vec3f h, float d_spec) const;
   const Material& m_;
   Vec3f wo_;
   float lobe_[3] = {0.0f, 0.0f, 0.0f};  // probabilities of the specular, diffuse and flake lobes
   float through_wo_ = 0.0f;             // 1 - Fresnel of the coat toward wo (plastic, car paint)
+  float alpha_ = 0.0f;                  // the specular lobe's (coat's) alpha
+  float lambda_wo_ = 0.0f;              // its Smith Lambda(wo)
+  Rgb fa_{0.0f}, fnk2_{0.0f};           // conductor: n^2 - k^2 - 1 and n^2 k^2 per channel
 };
 // u0 chooses a lobe (Glass: reflection or refraction), u chooses the direction. Returns false if no
 // direction was produced.

@@ -585,11 +585,12 @@ class Tracer {
                            if (!(pl > 0) || dot(wl, sp.ng) <= 0) return;
                            Vec3f wi = fr.toLocal(wl);
                            if (wi.z <= 0 || (env && maxComponent(Le) <= 0)) return;
-                           Rgb f = bsdf.eval(wi);
+                           float pdf;
+                           Rgb f = bsdf.evalPdf(wi, pdf);
                            if (maxComponent(f) <= 0) return;
                            ++nrays;
                            if (occluded(scene, origin, wl, 0.0f, env ? kInf : dist * (1 - 1e-4f))) return;
-                           float w = powerHeuristic(nl * pl, ns * bsdf.pdf(wi));
+                           float w = powerHeuristic(nl * pl, ns * pdf);
                            L += beta * f * Le * (wi.z * w / (nl * pl));
                          });
 
@@ -643,7 +644,7 @@ class Tracer {
             const float ux = lhs.at(0, j, rng);
             ud = Vec2f{ux, lhs.at(1, j, rng)};
           }
-          if (!sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0)) continue;
+          if (!bsdf.sample(ul, ud, bs) || !(bs.pdf > 0)) continue;
           Vec3f wi_w = fr.toWorld(bs.wi);
           if (!sameSide(bs.wi, wi_w, sp.ng)) continue;
           Rgb b = beta * bs.f * (std::fabs(bs.wi.z) / (bs.pdf * float(n)));
@@ -1380,8 +1381,9 @@ class Tracer {
         if (wi.z <= 0) continue;
         double lit = geo.lit(p, li);
         if (!(lit > 0)) continue;
-        Rgb f = bsdf.eval(wi);
-        float w = powerHeuristic(nl_eff * l.pdf, float(nbm * p.weight / wsum) * bsdf.pdf(wi));
+        float pdf;
+        Rgb f = bsdf.evalPdf(wi, pdf);
+        float w = powerHeuristic(nl_eff * l.pdf, float(nbm * p.weight / wsum) * pdf);
         L += beta * f * l.Le * float(p.weight * lit * wi.z * w * direct_scale / (nl_eff * l.pdf));
       }
     }
@@ -1519,11 +1521,12 @@ class Tracer {
       const Vec3f wo = fr.toLocal(wo_w), wi = fr.toLocal(d);
       if (wo.z <= 0 || wi.z <= 0) continue;
       const BsdfAt bsdf(m, wo);
-      const Rgb f = bsdf.eval(wi);
+      float pdf;
+      const Rgb f = bsdf.evalPdf(wi, pdf);
       if (maxComponent(f) <= 0) continue;
       const auto sc = geo.scatter(p, d);
       if (sc.hits.empty()) continue;
-      const double density = jointDensity(p.weight, wsum, wf, nbm, bsdf.pdf(wi), c, d);
+      const double density = jointDensity(p.weight, wsum, wf, nbm, pdf, c, d);
       const Rgb beta_k = beta * f * float(double(wi.z) / density);
       if (!isFinite(beta_k) || maxComponent(beta_k) <= 0) continue;
       L += shadeLevel(geo, top, sc.hits, -d, beta_k, 1, ls, rng, nrays, 1.0f, true);

@@ -166,9 +166,12 @@ Hit firstHit(const Section& sec, Vec2d P, Vec2d d, size_t skip) {
     const double den = cross(d, e);
     if (den == 0) continue;  // parallel (or zero-length)
     const Vec2d AP = A - P;
-    const double s = cross(AP, e) / den;
+    // Where the ray's line crosses the facet first: most facets are missed there, and the ray
+    // parameter is then not needed.
     const double u = cross(AP, d) / den;
-    if (s > 0 && u >= 0 && u <= 1 && s < best.s) best = {int(j), s};
+    if (!(u >= 0 && u <= 1)) continue;
+    const double s = cross(AP, e) / den;
+    if (s > 0 && s < best.s) best = {int(j), s};
   }
   return best;
 }
@@ -185,8 +188,9 @@ double lineParam(const Section& sec, size_t j, Vec2d P, Vec2d d) {
 // the same first facet (the order along d only changes where a ray grazes a vertex), so one ray
 // from each sub-interval's midpoint decides it: the ordered-projection idea of Bosch 2007
 // §4.2.3.3, evaluated by ray casting so that it holds for any sign of d_w.
-std::vector<double> breakpoints(const Section& sec, size_t k, Vec2d d, double t0, double t1) {
-  std::vector<double> ts{t0, t1};
+// (Into `ts`, whose storage the callers reuse.)
+void breakpoints(const Section& sec, size_t k, Vec2d d, double t0, double t1, std::vector<double>& ts) {
+  ts.assign({t0, t1});
   // q = cross(d, P) is constant along lines parallel to d, affine along the facet.
   const double qa = cross(d, sec.pts[k]), dq = cross(d, sec.pts[k + 1]) - qa;
   if (dq != 0)
@@ -196,14 +200,13 @@ std::vector<double> breakpoints(const Section& sec, size_t k, Vec2d d, double t0
     }
   std::sort(ts.begin(), ts.end());
   ts.erase(std::unique(ts.begin(), ts.end()), ts.end());
-  return ts;
 }
 
 // Footprint weights of the sub-ranges [ts[i], ts[i+1]] of portion p (through Portion::xAt).
 // Where the footprint gives them no weight at all (the portion's x range is a single point of a
 // point footprint) the parameter lengths stand in, so the shares still split p in proportion.
-std::vector<double> subWeights(const Portion& p, const Footprint& fp, const std::vector<double>& ts) {
-  std::vector<double> w(ts.size() - 1);
+void subWeights(const Portion& p, const Footprint& fp, const std::vector<double>& ts, std::vector<double>& w) {
+  w.assign(ts.size() - 1, 0.0);
   double total = 0;
   for (size_t i = 0; i + 1 < ts.size(); ++i) {
     const double xa = p.xAt(ts[i]), xb = p.xAt(ts[i + 1]);
@@ -212,7 +215,6 @@ std::vector<double> subWeights(const Portion& p, const Footprint& fp, const std:
   }
   if (!(total > 0))
     for (size_t i = 0; i + 1 < ts.size(); ++i) w[i] = ts[i + 1] - ts[i];
-  return w;
 }
 
 bool validPortion(const Section& s, const Portion& p) {
@@ -288,8 +290,8 @@ Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
 
   Section out;
   emit(out, {start, 0.0}, 0);
-  std::vector<size_t> active;
-  std::vector<double> ru, lv, cuts;
+  thread_local std::vector<size_t> active;
+  thread_local std::vector<double> ru, lv, cuts;
   for (size_t i = 0; i < bs.size(); ++i) {
     const double b = bs[i];
     // Vertical step at b to the lowest right-hand limit of the profiles continuing past b.
@@ -377,7 +379,8 @@ std::vector<Portion> visible(const Section& s, Vec2d e_bw, const Footprint& fp) 
   const size_t n = s.pts.size();
   if (n < 2) return out;
   const double r = e_bw.x / std::max(e_bw.y, 1e-6);  // grazing clamp keeps x finite
-  std::vector<double> x(n);
+  thread_local std::vector<double> x;
+  x.resize(n);
   for (size_t j = 0; j < n; ++j) x[j] = s.pts[j].x - s.pts[j].y * r;  // Eq. 4.3
   const double hw = fp.halfWidth();
 
@@ -441,8 +444,9 @@ double litFraction(const Section& s, const Portion& p, const Footprint& fp, Vec2
     return firstHit(s, pointOn(s, p.facet, t), l_bw, k).facet < 0 && l_bw.y >= 0;
   };
   if (!(p.t1 > p.t0)) return lit(p.t0) ? 1.0 : 0.0;
-  const std::vector<double> ts = breakpoints(s, k, l_bw, p.t0, p.t1);
-  const std::vector<double> w = subWeights(p, fp, ts);
+  thread_local std::vector<double> ts, w;
+  breakpoints(s, k, l_bw, p.t0, p.t1, ts);
+  subWeights(p, fp, ts, w);
   double on = 0, total = 0;
   for (size_t i = 0; i < w.size(); ++i) {
     total += w[i];
@@ -451,7 +455,11 @@ double litFraction(const Section& s, const Portion& p, const Footprint& fp, Vec2
   return total > 0 ? clamp01(on / total) : 0.0;
 }
 
-Shadowing::Shadowing(const Section& s, Vec2d l_bw) : s_(&s), l_(l_bw) {
+Shadowing::Shadowing(const Section& s, Vec2d l_bw) { reset(s, l_bw); }
+
+void Shadowing::reset(const Section& s, Vec2d l_bw) {
+  s_ = &s;
+  l_ = l_bw;
   if (!(l_bw.y > 0)) {
     from_ = 2;
     return;
@@ -524,21 +532,22 @@ Scatter scatter(const Section& s, const Portion& p, const Footprint& fp, Vec2d d
   const size_t k = size_t(p.facet);
   if (dot(d_bw, s.normal(k)) <= 0) return out;
 
-  std::vector<double> ts;
-  std::vector<double> w;
+  // (Scratch buffers kept per thread: scatter runs for every sampled direction.)
+  thread_local std::vector<double> ts, w;
+  thread_local std::vector<int> hit;
   if (p.t1 > p.t0) {
-    ts = breakpoints(s, k, d_bw, p.t0, p.t1);
-    w = subWeights(p, fp, ts);
+    breakpoints(s, k, d_bw, p.t0, p.t1, ts);
+    subWeights(p, fp, ts, w);
   } else {
-    ts = {p.t0, p.t0};  // a point portion (point footprint): one ray carries everything
-    w = {1.0};
+    ts.assign({p.t0, p.t0});  // a point portion (point footprint): one ray carries everything
+    w.assign(1, 1.0);
   }
   double total = 0;
   for (double v : w) total += v;
   const double scale = total > 0 ? p.weight / total : 0.0;
 
   // Outcome per piece: the facet hit first, or -1.
-  std::vector<int> hit(w.size());
+  hit.resize(w.size());
   for (size_t i = 0; i < w.size(); ++i)
     hit[i] = firstHit(s, pointOn(s, p.facet, 0.5 * (ts[i] + ts[i + 1])), d_bw, k).facet;
 

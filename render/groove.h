@@ -95,11 +95,14 @@ double litFraction(const Section& s, const Portion& p, const Footprint& fp, Vec2
 // Gives litFraction(s, p, fp, l) (tested against it); the section must outlive it.
 class Shadowing {
  public:
+  Shadowing() = default;
   Shadowing(const Section& s, Vec2d l_bw);
+  // Rebuilds it for another section or direction, keeping its storage.
+  void reset(const Section& s, Vec2d l_bw);
   double litFraction(const Portion& p, const Footprint& fp) const;
 
  private:
-  const Section* s_;
+  const Section* s_ = nullptr;
   Vec2d l_;
   int from_ = 0;              // +1: light from +b, -1: from -b, 0: straight up, 2: not above (l_w <= 0)
   std::vector<double> x_;     // projection of each vertex

@@ -1087,10 +1087,11 @@ class Tracer {
                    const std::vector<LightSample>& ls, Rng& rng, uint64_t& nrays) const {
     Vec2d e_bw(dot(wo_w, gs.B), dot(wo_w, gs.W));
     std::vector<groove::Portion> portions = groove::visible(sec, e_bw, gs.fp);
-    // The section's shadowing per light sample, shared by every portion at every level.
-    std::vector<groove::Shadowing> shadow;
-    shadow.reserve(ls.size());
-    for (const LightSample& l : ls) shadow.emplace_back(sec, Vec2d(dot(l.wl, gs.B), dot(l.wl, gs.W)));
+    // The section's shadowing per light sample, shared by every portion at every level (kept per
+    // thread with its storage: a footprint is shaded before the next one's section is built).
+    thread_local std::vector<groove::Shadowing> shadow;
+    shadow.resize(ls.size());
+    for (size_t i = 0; i < ls.size(); ++i) shadow[i].reset(sec, Vec2d(dot(ls[i].wl, gs.B), dot(ls[i].wl, gs.W)));
     return shadeLevel(LineGeometry{gs, sec, shadow}, top, portions, wo_w, Rgb(1.0f), 0, ls, rng, nrays);
   }
 

@@ -156,23 +156,57 @@ struct Hit {
   double s = kInf;  // ray parameter of the hit
 };
 
-// First facet other than `skip` that the ray P + s d (s > 0) meets. Callers start rays from the
-// interior of a facet away from every breakpoint, so no tolerance is needed at vertices.
-Hit firstHit(const Section& sec, Vec2d P, Vec2d d, size_t skip) {
+// The highest point of the section (rays climbing above it meet nothing more).
+double sectionTop(const Section& sec) {
+  double top = -kInf;
+  for (const Vec2d& q : sec.pts) top = std::max(top, q.y);
+  return top;
+}
+
+// First facet other than `skip` that the ray P + s d (s > 0) meets, P a point of facet `skip`.
+// Callers start rays from the interior of a facet away from every breakpoint, so no tolerance is
+// needed at vertices. The facets are in order of b, so a ray with d_b > 0 can only meet those after
+// `skip`, and meets them in that order (its b grows with s): the first one it meets is the
+// nearest, and a rising ray that has climbed above `top` (sectionTop) at a facet's near end meets
+// nothing from there on. (d_b < 0 the same way down; d_b = 0 tests every facet.)
+Hit firstHit(const Section& sec, Vec2d P, Vec2d d, size_t skip, double top) {
   Hit best;
-  for (size_t j = 0; j < sec.facets(); ++j) {
-    if (j == skip) continue;
+  // Facet j's crossing with the ray, kept when it is the nearest so far.
+  auto test = [&](size_t j) {
     const Vec2d A = sec.pts[j], e = sec.pts[j + 1] - sec.pts[j];
     const double den = cross(d, e);
-    if (den == 0) continue;  // parallel (or zero-length)
+    if (den == 0) return false;  // parallel (or zero-length)
     const Vec2d AP = A - P;
     // Where the ray's line crosses the facet first: most facets are missed there, and the ray
     // parameter is then not needed.
     const double u = cross(AP, d) / den;
-    if (!(u >= 0 && u <= 1)) continue;
+    if (!(u >= 0 && u <= 1)) return false;
     const double s = cross(AP, e) / den;
-    if (s > 0 && s < best.s) best = {int(j), s};
+    if (!(s > 0 && s < best.s)) return false;
+    best = {int(j), s};
+    return true;
+  };
+  const size_t nf = sec.facets();
+  // The ray's height where it reaches b (d_b != 0), against the top with a margin far above
+  // rounding and far below any facet.
+  const double slope = d.x != 0 ? d.y / d.x : 0.0;
+  const double above = top + 1e-9 * (1.0 + std::fabs(top));
+  if (d.x > 0) {
+    for (size_t j = skip + 1; j < nf; ++j) {
+      if (d.y > 0 && P.y + (sec.pts[j].x - P.x) * slope > above) break;
+      if (test(j)) break;
+    }
+    return best;
   }
+  if (d.x < 0) {
+    for (size_t j = std::min(skip, nf); j-- > 0;) {
+      if (d.y > 0 && P.y + (sec.pts[j + 1].x - P.x) * slope > above) break;
+      if (test(j)) break;
+    }
+    return best;
+  }
+  for (size_t j = 0; j < nf; ++j)
+    if (j != skip) test(j);
   return best;
 }
 
@@ -440,8 +474,9 @@ double litFraction(const Section& s, const Portion& p, const Footprint& fp, Vec2
   if (!validPortion(s, p) || !(p.weight > 0)) return 0;
   const size_t k = size_t(p.facet);
   if (dot(l_bw, s.normal(k)) <= 0) return 0;  // facet faces away from the light
+  const double top = sectionTop(s);
   auto lit = [&](double t) {
-    return firstHit(s, pointOn(s, p.facet, t), l_bw, k).facet < 0 && l_bw.y >= 0;
+    return firstHit(s, pointOn(s, p.facet, t), l_bw, k, top).facet < 0 && l_bw.y >= 0;
   };
   if (!(p.t1 > p.t0)) return lit(p.t0) ? 1.0 : 0.0;
   thread_local std::vector<double> ts, w;
@@ -547,9 +582,10 @@ Scatter scatter(const Section& s, const Portion& p, const Footprint& fp, Vec2d d
   const double scale = total > 0 ? p.weight / total : 0.0;
 
   // Outcome per piece: the facet hit first, or -1.
+  const double top = d_bw.y > 0 ? sectionTop(s) : kInf;
   hit.resize(w.size());
   for (size_t i = 0; i < w.size(); ++i)
-    hit[i] = firstHit(s, pointOn(s, p.facet, 0.5 * (ts[i] + ts[i + 1])), d_bw, k).facet;
+    hit[i] = firstHit(s, pointOn(s, p.facet, 0.5 * (ts[i] + ts[i + 1])), d_bw, k, top).facet;
 
   for (size_t i = 0; i < w.size();) {
     size_t j = i;

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <vector>
@@ -1142,6 +1143,55 @@ TEST(Glass, FiniteEverywhere) {
   EXPECT_GT(produced, 3000);
   EXPECT_GT(transmitted, 1000);
   EXPECT_GT(reflected, 500);
+}
+
+// BsdfAt::evalPdf and BsdfAt::sample share work between eval and pdf (the half vector, D, Lambda(wo),
+// the lobe probabilities): the MIS weights need every route to give the same numbers, so they must
+// agree with eval() and pdf() to the bit, and sampleBsdf() with BsdfAt::sample.
+TEST(Bsdf, EvalPdfAndSampleAgreeWithEvalAndPdfToTheBit) {
+  Rng rng(4242);
+  const auto same = [](const Rgb& a, const Rgb& b) {
+    return std::memcmp(&a, &b, sizeof(Rgb)) == 0;
+  };
+  int sampled = 0;
+  for (MicrofacetModel model : kModels) {
+    for (float r : {0.05f, 0.3f, 0.8f}) {
+      std::vector<Material> ms = everyKind(model, r);
+      ms.push_back(glass(model, r, 1.5f));
+      Material rough;
+      rough.kind = MaterialKind::RoughDiffuse;
+      rough.base_color = Rgb{0.6f, 0.3f, 0.2f};
+      rough.sigma = 0.4f;
+      ms.push_back(rough);
+      Material tilted = carPaint(model, r, 0.3f, 0.5f, Rgb{0.7f, 0.1f, 0.1f});
+      tilted.flake_normal = normalize(Vec3f(0.2f, -0.1f, 1.0f));
+      ms.push_back(tilted);
+      for (const Material& m : ms) {
+        for (int i = 0; i < 400; ++i) {
+          const Vec3f wo = uniformHemisphere(rng);
+          Vec3f wi = uniformHemisphere(rng);
+          if (m.kind == MaterialKind::Glass && i % 2) wi.z = -wi.z;  // refraction too
+          const BsdfAt at(m, wo);
+          float pdf = -1.0f;
+          const Rgb f = at.evalPdf(wi, pdf);
+          ASSERT_TRUE(same(f, at.eval(wi))) << label(m) << " r=" << r << " i=" << i;
+          const float pdf_alone = at.pdf(wi);
+          ASSERT_EQ(std::memcmp(&pdf, &pdf_alone, sizeof(float)), 0) << label(m) << " i=" << i;
+          const float u0 = rng.uniform();
+          const Vec2f u{rng.uniform(), rng.uniform()};
+          BsdfSample a, b;
+          const bool oka = at.sample(u0, u, a), okb = sampleBsdf(m, wo, u0, u, b);
+          ASSERT_EQ(oka, okb) << label(m) << " i=" << i;
+          if (!oka) continue;
+          ++sampled;
+          ASSERT_TRUE(same(a.wi, b.wi) && same(a.f, b.f) && a.pdf == b.pdf) << label(m) << " i=" << i;
+          ASSERT_TRUE(same(a.f, at.eval(a.wi))) << label(m) << " i=" << i;
+          ASSERT_EQ(a.pdf, at.pdf(a.wi)) << label(m) << " i=" << i;
+        }
+      }
+    }
+  }
+  EXPECT_GT(sampled, 10000);
 }
 
 }  // namespace

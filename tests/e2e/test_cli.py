@@ -271,6 +271,34 @@ class BadInput(unittest.TestCase):
                 cfg = SMALL.replace("type: plate\n  width_mm: 300\n  height_mm: 200", "type: mesh\n  path: " + name)
                 self.expect_error(["generate", self.config(d, cfg), "--out", out], *expect[name], out=out)
 
+    def test_a_later_samples_error_is_found_before_anything_is_written(self):
+        # Every sample's scene is built before the output folder is made; the first sample is built
+        # last and kept for rendering, so an error in a later one must still stop the run first.
+        # Here a sample that draws the displaced dent cannot be rendered with the scratch
+        # reference: with seed 1 that is sample 1 only, with seed 2 sample 0 only, with seed 8 none.
+        d = work("bad_sample")
+        text = """seed: %d
+count: 2
+part: {type: plate, width_mm: 40, height_mm: 40}
+material: {type: metal, metal: steel, roughness: 0.2}
+lights:
+  - {type: dome, radiance: [0.5, 0.5, 0.5]}
+camera: {fov_deg: 30, position: [0, 0, 80], target: [0, 0, 0]}
+render: {resolution: [16, 16], spp: 1, scratches: geometry}
+defects:
+  - {type: scratch, count: 1, length_mm: 5, force_kg: 1, hardness_hv: 30}
+  - {type: dent, count: {uniform: [0, 1]}, radius_mm: 5, depth_mm: 1, displacement: geometry}
+"""
+        for seed in (1, 2):
+            with self.subTest(seed=seed):
+                out = os.path.join(d, "out%d" % seed)
+                cfg = self.config(d, text % seed, "seed%d.yaml" % seed)
+                self.expect_error(["generate", cfg, "--out", out], "seed%d.yaml:10:3" % seed,
+                                  "geometry cannot be combined with displaced dents", out=out)
+        out = os.path.join(d, "out8")
+        run("generate", self.config(d, text % 8, "seed8.yaml"), "--out", out, "--quiet")
+        self.assertEqual(len(glob.glob(os.path.join(out, "images", "*.png"))), 2)
+
     def test_flag_errors(self):
         d = work("bad_flags")
         cfg = self.config(d, SMALL, "ok.yaml")

@@ -189,19 +189,28 @@ inline float smithG1(MicrofacetModel model, float alpha, Vec3f w) {
   return 1.0f / (1.0f + smithLambda(model, alpha, w));
 }
 
-// Height-correlated masking-shadowing (Heitz 2014, eq. 99): G2 = 1 / (1 + Lambda(wo) + Lambda(wi)).
-inline float smithG2(MicrofacetModel model, float alpha, Vec3f wo, Vec3f wi) {
+// Height-correlated masking-shadowing (Heitz 2014, eq. 99): G2 = 1 / (1 + Lambda(wo) + Lambda(wi)),
+// from the two Lambdas.
+inline float smithG2FromLambdas(float lambda_o, float lambda_i) {
   // Lambda sum first: a + b == b + a exactly in IEEE arithmetic, so G2(wo, wi) == G2(wi, wo)
   // bitwise.
-  return 1.0f / (1.0f + (smithLambda(model, alpha, wo) + smithLambda(model, alpha, wi)));
+  return 1.0f / (1.0f + (lambda_o + lambda_i));
+}
+inline float smithG2(MicrofacetModel model, float alpha, Vec3f wo, Vec3f wi) {
+  return smithG2FromLambdas(smithLambda(model, alpha, wo), smithLambda(model, alpha, wi));
 }
 
 // D G2 / (4 cos_o cos_i): the microfacet reflection BRDF without its Fresnel factor
-// (Walter et al. 2007, eq. 20). Symmetric in wo and wi.
-inline float microfacetReflection(MicrofacetModel model, float alpha, Vec3f wo, Vec3f wi, Vec3f h) {
+// (Walter et al. 2007, eq. 20). Symmetric in wo and wi. From D(h) and the two Lambdas (BsdfAt
+// keeps Lambda(wo)), and from the model.
+inline float microfacetReflectionFromD(float d, float lambda_o, float lambda_i, Vec3f wo, Vec3f wi) {
   const float den = 4.0f * wo.z * wi.z;
   if (!(den > 0.0f)) return 0.0f;
-  return ndf(model, alpha, h) * smithG2(model, alpha, wo, wi) / den;
+  return d * smithG2FromLambdas(lambda_o, lambda_i) / den;
+}
+inline float microfacetReflection(MicrofacetModel model, float alpha, Vec3f wo, Vec3f wi, Vec3f h) {
+  return microfacetReflectionFromD(ndf(model, alpha, h), smithLambda(model, alpha, wo), smithLambda(model, alpha, wi),
+                                   wo, wi);
 }
 
 inline Vec3f reflectAbout(Vec3f wo, Vec3f h) { return h * (2.0f * dot(wo, h)) - wo; }
@@ -243,11 +252,16 @@ inline bool sampleMicrofacetNormal(MicrofacetModel model, float alpha, Vec3f wo,
 // dwi/dh = 1 / (4 |wo.h|) (Walter et al. 2007, eq. 14).
 //  GGX VNDF: G1(wo) (wo.h) D(h) / wo.z / (4 wo.h) = G1(wo) D(h) / (4 wo.z)  (Heitz 2018).
 //  Beckmann: D(h) h.z / (4 wo.h).
-inline float microfacetPdf(MicrofacetModel model, float alpha, Vec3f wo, Vec3f h) {
-  const float d = ndf(model, alpha, h);
-  if (model == MicrofacetModel::GGX) return d * smithG1(model, alpha, wo) / (4.0f * wo.z);
+// From D(h) and Lambda(wo) (GGX's G1(wo) = 1 / (1 + Lambda(wo)); Beckmann does not use it), and
+// from the model.
+inline float microfacetPdfFromD(MicrofacetModel model, float d, float lambda_o, Vec3f wo, Vec3f h) {
+  if (model == MicrofacetModel::GGX) return d * (1.0f / (1.0f + lambda_o)) / (4.0f * wo.z);
   const float oh = dot(wo, h);
   return oh > 0.0f ? d * h.z / (4.0f * oh) : 0.0f;
+}
+inline float microfacetPdf(MicrofacetModel model, float alpha, Vec3f wo, Vec3f h) {
+  const float lambda_o = model == MicrofacetModel::GGX ? smithLambda(model, alpha, wo) : 0.0f;
+  return microfacetPdfFromD(model, ndf(model, alpha, h), lambda_o, wo, h);
 }
 
 // Fresnel-Schlick with a coloured F0 (Schlick 1994, "An Inexpensive BRDF Model for
@@ -671,17 +685,7 @@ float BsdfAt::pdfImpl(Vec3f wi, Vec3f h, float d_spec) const {
   const Material& m = m_;
   const Vec3f wo = wo_;
   float pdf = 0.0f;
-  if (lobe_[kSpec] > 0.0f) {
-    // microfacetPdf with the cached Lambda(wo): G1(wo) = 1 / (1 + Lambda(wo)).
-    float p = 0.0f;
-    if (m.model == MicrofacetModel::GGX) {
-      p = d_spec * (1.0f / (1.0f + lambda_wo_)) / (4.0f * wo.z);
-    } else {
-      const float oh = dot(wo, h);
-      p = oh > 0.0f ? d_spec * h.z / (4.0f * oh) : 0.0f;
-    }
-    pdf += lobe_[kSpec] * p;
-  }
+  if (lobe_[kSpec] > 0.0f) pdf += lobe_[kSpec] * microfacetPdfFromD(m.model, d_spec, lambda_wo_, wo, h);
   if (lobe_[kDiffuse] > 0.0f) pdf += lobe_[kDiffuse] * wi.z * kInvPiF;
   if (lobe_[kFlake] > 0.0f) {
     if (m.flake_normal.z < 1.0f) {
@@ -717,13 +721,11 @@ Rgb BsdfAt::evalImpl(Vec3f wi, float* pdf) const {
     if (pdf) *pdf = this->pdf(wi);
     return Rgb(0.0f);
   }
-  // The specular lobe's D(h) and D G2 / (4 cos_o cos_i) (microfacetReflection with the cached
-  // Lambda(wo)); h is normalize(wo + wi) to the bit, so pdf() would find the same D.
+  // The specular lobe's D(h), shared with its density (h is normalize(wo + wi) to the bit, so
+  // pdf() would find the same D), and its reflection with the cached Lambda(wo).
   const float d = ndf(m.model, alpha_, h);
   if (pdf) *pdf = pdfImpl(wi, h, d);
-  const float den = 4.0f * wo.z * wi.z;
-  const float spec_mf =
-      den > 0.0f ? d * (1.0f / (1.0f + (lambda_wo_ + smithLambda(m.model, alpha_, wi)))) / den : 0.0f;
+  const float spec_mf = microfacetReflectionFromD(d, lambda_wo_, smithLambda(m.model, alpha_, wi), wo, wi);
   switch (m.kind) {
     case MaterialKind::Conductor:
       return Rgb(conductorFresnel(cos_oh, fa_.x, fnk2_.x), conductorFresnel(cos_oh, fa_.y, fnk2_.y),

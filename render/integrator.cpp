@@ -451,9 +451,13 @@ class Tracer {
   // Camera sample s of a pixel; `pads` (optional) spreads the first bounce's light samples and
   // BSDF direction over the pixel's samples (PixelPattern: dimension i < lights for area light i,
   // then the environment, then the BSDF; the last one is the position in the pixel, render()).
-  Rgb trace(DiffRay ray, Rng& rng, uint64_t& nrays, const PixelPattern* pads = nullptr, int s = 0) const {
+  // `plate` (groove shading): `ray` goes through the centre of the sample's stratum, whose
+  // footprint the groove renderer integrates; where that footprint holds no groove, the sample is
+  // traced along `plate` instead, a ray through a point drawn uniformly in the stratum.
+  Rgb trace(DiffRay ray, Rng& rng, uint64_t& nrays, const PixelPattern* pads = nullptr, int s = 0,
+            const DiffRay* plate = nullptr) const {
     // Camera rays count as "specular": no MIS on directly seen lights.
-    return continuePath(ray, Rgb(1.0f), 0.0f, true, Vec3f(0.0f), 0, rng, nrays, 1, 1.0f, pads, s);
+    return continuePath(ray, Rgb(1.0f), 0.0f, true, Vec3f(0.0f), 0, rng, nrays, 1, 1.0f, pads, s, plate);
   }
   int padDimensions() const { return int(s_.lights.area.size()) + 3; }
   // BSDF directions a camera hit off the grooves splits into when groove shading is on: at most
@@ -474,7 +478,7 @@ class Tracer {
   // lobe directions, shadeLevel).
   Rgb continuePath(DiffRay ray, Rgb beta, float prev_pdf, bool prev_specular, Vec3f prev_p, int depth0, Rng& rng,
                    uint64_t& nrays, float prev_nl, float prev_share = 1.0f, const PixelPattern* pads = nullptr,
-                   int pad_s = 0) const {
+                   int pad_s = 0, const DiffRay* plate = nullptr) const {
     Rgb L(0.0f);
     RTCScene scene = s_.part->scene();
     // Russian roulette looks at the throughput relative to the one this path started with (so a
@@ -484,9 +488,26 @@ class Tracer {
     // survivors, leaving the glass, would come out as fireflies.
     const float rr_ref = maxComponent(beta);
     float eta_scale = 1.0f;
+    // The camera hit's grooves (depth 0 with groove shading on); `grooved`: whether they were
+    // already gathered (1), found absent (0) or not looked for yet (-1).
+    thread_local std::vector<GrooveSet> sets;
+    int grooved = -1;
     for (int depth = depth0;; ++depth) {
       Hit h = intersect(scene, ray.o, ray.d, 0.0f, kInf);
       ++nrays;
+      if (plate) {
+        // Groove shading integrates a groove footprint over the stratum around the ray; away from
+        // the grooves the stratum is point-sampled, at a random point in it: at its centre, every
+        // pixel would sample a detail finer than a stratum (a highlight's mirror image of a light
+        // on a curved panel) at the same place, and such a line would break into regular dashes.
+        grooved = footprintHasGrooves(ray, h, sets) ? 1 : 0;
+        if (!grooved) {
+          ray = *plate;
+          h = intersect(scene, ray.o, ray.d, 0.0f, kInf);
+          ++nrays;
+        }
+        plate = nullptr;
+      }
       // Emitters are not in the BVH; test them analytically against the part's hit distance.
       int light_hit = -1;
       float tl = h.t;
@@ -535,9 +556,8 @@ class Tracer {
         applyPaint(m, ps);
       }
       // Camera hits on scratches: the groove renderer integrates the whole footprint.
-      if (depth == 0 && grooves_ && sp.uv_ok) {
-        thread_local std::vector<GrooveSet> sets;
-        if (gatherGrooves(sp, h, wo_w, sets)) {
+      if (depth == 0 && grooves_ && sp.uv_ok && grooved != 0) {
+        if (grooved == 1 || gatherGrooves(sp, h, wo_w, sets)) {
           // Weathering over the groove (rust that grew from a bared scratch) covers its facets
           // too: with probability `cover` every facet takes the weathered surface.
           if (has_weathering_) {
@@ -871,6 +891,18 @@ class Tracer {
     for (const GrooveSet& gs : sets) total += gs.share;
     for (GrooveSet& gs : sets) gs.share /= total;
     return !sets.empty();
+  }
+
+  // Whether the camera ray `ray`, which hit `h`, shows grooves in its footprint (filling `sets`
+  // with them): it must reach the part before any emitter the camera sees, and hit its chart.
+  bool footprintHasGrooves(const DiffRay& ray, const Hit& h, std::vector<GrooveSet>& sets) const {
+    if (!h.hit || st_.max_bounces < 1) return false;
+    for (const AreaLight& al : s_.lights.area) {
+      float t;
+      if (al.visible_to_camera && al.intersect(ray.o, ray.d, 0.0f, h.t, t)) return false;
+    }
+    const SurfacePoint sp = surface(h, ray, true);
+    return sp.uv_ok && gatherGrooves(sp, h, -ray.d, sets);
   }
 
   static bool parallel(Vec2f a, Vec2f b) { return std::fabs(dot(a, b)) >= 0.99939f; }
@@ -1766,24 +1798,31 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
           for (int s = 0; s < st.spp; ++s) {
             Rng rng(hashKey(st.seed, uint64_t(Stream::Pixel), st.sample_index, pixel * 65536u + s));
             // Pixel (x, y) covers [x - 0.5, x + 0.5] in OpenCV's convention; box filter.
-            float jx = rng.uniform(), jy = rng.uniform();
+            const float ux = rng.uniform(), uy = rng.uniform();
+            float jx = ux, jy = uy;
             if (st.spp > 1) {
               const Vec2f j = pads.at(tracer.padDimensions() - 1, s, false);
               jx = j.x;
               jy = j.y;
             }
-            DiffRay r;
+            DiffRay r, plate;
             if (tracer.grooves_) {
               // Groove rendering integrates each stratum's footprint analytically: samples sit at
               // the centres of sx x sy strata with a footprint of one stratum.
+              // Away from the grooves the sample is traced through a uniform point of its stratum
+              // (Tracer::trace's `plate`).
               int i = s % sx, j = s / sx;
               r = cameraRay(gen, x - 0.5f + (i + 0.5f) / sx, y - 0.5f + (j + 0.5f) / sy);
               r.dddx = r.dddx / float(sx);
               r.dddy = r.dddy / float(sy);
+              plate = cameraRay(gen, x - 0.5f + (i + ux) / sx, y - 0.5f + (j + uy) / sy);
+              plate.dddx = plate.dddx / float(sx);
+              plate.dddy = plate.dddy / float(sy);
             } else {
               r = cameraRay(gen, x - 0.5f + jx, y - 0.5f + jy);
             }
-            Rgb c = tracer.trace(r, rng, local_rays, st.spp > 1 ? &pads : nullptr, s);
+            Rgb c = tracer.trace(r, rng, local_rays, st.spp > 1 ? &pads : nullptr, s,
+                                 tracer.grooves_ ? &plate : nullptr);
             if (isFinite(c)) sum += c;
           }
           float* o = out.rgb.at(x, y);

@@ -658,6 +658,8 @@ BsdfAt::BsdfAt(const Material& m, Vec3f wo) : m_(m), wo_(wo) {
     case MaterialKind::CarPaint:
       through_wo_ = 1.0f - fresnelDielectric(wo.z, m.coat_ior);
       alpha_ = alphaOf(m.coat_roughness);
+      flake_alpha_ = alphaOf(m.flake_roughness);
+      if (!(m.flake_normal.z < 1.0f)) flake_lambda_wo_ = smithLambda(m.model, flake_alpha_, wo);
       break;
     case MaterialKind::RoughDiffuse:
     case MaterialKind::Glass:
@@ -681,7 +683,7 @@ float BsdfAt::pdf(Vec3f wi) const {
 Rgb BsdfAt::evalPdf(Vec3f wi, float& pdf) const { return evalImpl(wi, &pdf); }
 
 // The lobes' mixture density of wi, with h = normalize(wo + wi) and the specular lobe's D(h) given.
-float BsdfAt::pdfImpl(Vec3f wi, Vec3f h, float d_spec) const {
+float BsdfAt::pdfImpl(Vec3f wi, Vec3f h, float d_spec, float d_flake) const {
   const Material& m = m_;
   const Vec3f wo = wo_;
   float pdf = 0.0f;
@@ -692,9 +694,12 @@ float BsdfAt::pdfImpl(Vec3f wi, Vec3f h, float d_spec) const {
       const Frame ff = Frame::fromNormal(m.flake_normal);
       const Vec3f o = ff.toLocal(wo), i = ff.toLocal(wi);
       if (o.z > 0.0f && i.z > 0.0f)
-        pdf += lobe_[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), o, normalize(o + i));
+        pdf += lobe_[kFlake] * microfacetPdf(m.model, flake_alpha_, o, normalize(o + i));
     } else {
-      pdf += lobe_[kFlake] * microfacetPdf(m.model, alphaOf(m.flake_roughness), wo, h);
+      // As microfacetPdf(model, flake alpha, wo, h), with the cached Lambda(wo) (GGX only).
+      if (d_flake < 0.0f) d_flake = ndf(m.model, flake_alpha_, h);
+      pdf += lobe_[kFlake] *
+             microfacetPdfFromD(m.model, d_flake, m.model == MicrofacetModel::GGX ? flake_lambda_wo_ : 0.0f, wo, h);
     }
   }
   return pdf;
@@ -724,7 +729,12 @@ Rgb BsdfAt::evalImpl(Vec3f wi, float* pdf) const {
   // The specular lobe's D(h), shared with its density (h is normalize(wo + wi) to the bit, so
   // pdf() would find the same D), and its reflection with the cached Lambda(wo).
   const float d = ndf(m.model, alpha_, h);
-  if (pdf) *pdf = pdfImpl(wi, h, d);
+  // The untilted flake lobe's D(h) likewise, where the value or the density needs it.
+  const bool flat_flakes = m.kind == MaterialKind::CarPaint && !(m.flake_normal.z < 1.0f);
+  const float d_flake = flat_flakes && (lobe_[kFlake] > 0.0f || m.flake_amount > 0.0f)
+                            ? ndf(m.model, flake_alpha_, h)
+                            : -1.0f;
+  if (pdf) *pdf = pdfImpl(wi, h, d, d_flake);
   const float spec_mf = microfacetReflectionFromD(d, lambda_wo_, smithLambda(m.model, alpha_, wi), wo, wi);
   switch (m.kind) {
     case MaterialKind::Conductor:
@@ -748,11 +758,10 @@ Rgb BsdfAt::evalImpl(Vec3f wi, float* pdf) const {
           // A tilted flake: its microfacet lobe lives in the flake's own frame.
           const Frame ff = Frame::fromNormal(m.flake_normal);
           const Vec3f o = ff.toLocal(wo), i = ff.toLocal(wi);
-          mf = (o.z > 0.0f && i.z > 0.0f)
-                   ? microfacetReflection(m.model, alphaOf(m.flake_roughness), o, i, normalize(o + i))
-                   : 0.0f;
+          mf = (o.z > 0.0f && i.z > 0.0f) ? microfacetReflection(m.model, flake_alpha_, o, i, normalize(o + i))
+                                          : 0.0f;
         } else {
-          mf = microfacetReflection(m.model, alphaOf(m.flake_roughness), wo, wi, h);
+          mf = microfacetReflectionFromD(d_flake, flake_lambda_wo_, smithLambda(m.model, flake_alpha_, wi), wo, wi);
         }
         layer += schlick(cos_oh, base) * (fa * mf * m.flake_tint_scale);
       }
@@ -806,7 +815,7 @@ bool BsdfAt::sample(float u0, Vec2f u, BsdfSample& out) const {
     const float phi = 2.0f * kPiF * u.y;
     wi = Vec3f(r * std::cos(phi), r * std::sin(phi), safeSqrt(1.0f - u.x));
   } else {
-    const float alpha = lobe == kFlake ? alphaOf(m.flake_roughness) : alpha_;
+    const float alpha = lobe == kFlake ? flake_alpha_ : alpha_;
     Vec3f h;
     if (lobe == kFlake && m.flake_normal.z < 1.0f) {
       const Frame ff = Frame::fromNormal(m.flake_normal);

@@ -109,7 +109,8 @@ class BsdfAt {
  private:
   // eval and pdf at once; `pdf` may be null (eval alone).
   Rgb evalImpl(Vec3f wi, float* pdf) const;
-  float pdfImpl(Vec3f wi, Vec3f h, float d_spec) const;
+  // d_flake: the untilted flake lobe's D(h), or < 0 where it is to be found here.
+  float pdfImpl(Vec3f wi, Vec3f h, float d_spec, float d_flake = -1.0f) const;
   const Material& m_;
   Vec3f wo_;
   float lobe_[3] = {0.0f, 0.0f, 0.0f};  // probabilities of the specular, diffuse and flake lobes
@@ -117,6 +118,8 @@ class BsdfAt {
   float alpha_ = 0.0f;                  // the specular lobe's (coat's) alpha
   float lambda_wo_ = 0.0f;              // its Smith Lambda(wo)
   Rgb fa_{0.0f}, fnk2_{0.0f};           // conductor: n^2 - k^2 - 1 and n^2 k^2 per channel
+  float flake_alpha_ = 0.0f;            // car paint: the flake lobe's alpha
+  float flake_lambda_wo_ = 0.0f;        // and its Smith Lambda(wo) (untilted flakes)
 };
 // u0 chooses a lobe (Glass: reflection or refraction), u chooses the direction. Returns false if no
 // direction was produced.

@@ -1810,14 +1810,14 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
               // Groove rendering integrates each stratum's footprint analytically: samples sit at
               // the centres of sx x sy strata with a footprint of one stratum.
               // Away from the grooves the sample is traced through a uniform point of its stratum
-              // (Tracer::trace's `plate`).
+              // (Tracer::trace's `plate`) with the footprint of the whole pixel, as the path
+              // tracer's samples are: what filters by the footprint (the paint's flakes and orange
+              // peel, bumps) then looks the same at every spp and in both renderers.
               int i = s % sx, j = s / sx;
               r = cameraRay(gen, x - 0.5f + (i + 0.5f) / sx, y - 0.5f + (j + 0.5f) / sy);
               r.dddx = r.dddx / float(sx);
               r.dddy = r.dddy / float(sy);
               plate = cameraRay(gen, x - 0.5f + (i + ux) / sx, y - 0.5f + (j + uy) / sy);
-              plate.dddx = plate.dddx / float(sx);
-              plate.dddy = plate.dddy / float(sy);
             } else {
               r = cameraRay(gen, x - 0.5f + jx, y - 0.5f + jy);
             }

@@ -3,6 +3,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -20,6 +21,7 @@
 #include "generator/scene_builder.h"
 #include "labels/coco.h"
 #include "labels/image_io.h"
+#include "labels/visibility.h"
 
 namespace dg {
 
@@ -89,11 +91,12 @@ void writeSampleFiles(const fs::path& out, const Config& cfg, const Sample& s, c
   std::string id = idName(s.index);
   auto t0 = Clock::now();
   std::string png = r["png"].str();
+  // The image as written to the PNG (and as the contrast below sees it): exposure applied.
+  ImageF img = f.rgb;
+  const float gain = std::exp2(float(r["exposure_stops"].num()));
+  if (gain != 1.0f)
+    for (float& v : img.data) v *= gain;
   if (png != "none") {
-    ImageF img = f.rgb;
-    float gain = std::exp2(float(r["exposure_stops"].num()));
-    if (gain != 1.0f)
-      for (float& v : img.data) v *= gain;
     fs::path p = out / "images" / (id + ".png");
     writeAtomically(p, [&](const fs::path& tmp) {
       if (png == "16") {
@@ -117,6 +120,19 @@ void writeSampleFiles(const fs::path& out, const Config& cfg, const Sample& s, c
     writeAtomically(out / "masks" / (id + "_instance.png"), [&](const fs::path& t) { writePngGray16(t.string(), inst); });
     int64_t next = int64_t(s.index) * 65536 + 1;  // unique across samples and shards
     coco_anns = cocoAnnotations(int(s.index), inst, s.instances, next);
+    // How much each instance stands out in the image as written (labels/visibility.h).
+    if (!img.empty()) {
+      const std::vector<InstanceContrast> con = instanceContrast(inst, img, kContrastRingPixels);
+      for (json& a : coco_anns) {
+        const int id = a["instance_id"].get<int>();
+        auto c = std::find_if(con.begin(), con.end(), [&](const InstanceContrast& x) { return x.id == id; });
+        if (c == con.end()) continue;
+        json cj = {{"mask_L", c->mask_l}, {"ring_px", kContrastRingPixels}, {"ring_pixels", c->ring_pixels}};
+        if (c->ring_pixels > 0)
+          cj.update({{"ring_L", c->ring_l}, {"delta_L", c->delta_l}, {"p90_abs_delta_L", c->p90_abs_delta_l}});
+        a["contrast"] = cj;
+      }
+    }
   }
   if (r["exr"].flag()) {
     std::vector<ExrLayer> layers;

@@ -131,6 +131,12 @@ class Generate(unittest.TestCase):
         for a in coco["annotations"]:
             self.assertEqual(a["category_id"], 1)
             self.assertIn("radius_mm", a["attributes"])
+            # How much the instance stands out in the image (docs/output.md): lightness 0..100.
+            c = a["contrast"]
+            self.assertEqual(c["ring_px"], 3)
+            self.assertTrue(0 <= c["mask_L"] <= 100)
+            if c["ring_pixels"] > 0:
+                self.assertAlmostEqual(c["delta_L"], c["mask_L"] - c["ring_L"], places=9)
         meta = load_json(os.path.join(out, "samples", "000000.json"))
         for key in ("material.base_color[0]", "camera.position[0]", "defects[0].count"):
             self.assertIn(key, meta["sampled"])
@@ -179,7 +185,11 @@ class Generate(unittest.TestCase):
         ma, mb = (load_json(os.path.join(x, "samples", "000000.json")) for x in (a, b))
         self.assertEqual(ma["defects"], mb["defects"])
         self.assertEqual(ma["sampled"], mb["sampled"])
+        # The annotations are the same but for their contrast, which is measured on the image.
+        ca, cb = ([a.pop("contrast") for a in m["coco"]["annotations"]] for m in (ma, mb))
         self.assertEqual(ma["coco"]["annotations"], mb["coco"]["annotations"])
+        for x, y in zip(ca, cb):
+            self.assertLess(abs(x["mask_L"] - y["mask_L"]), 5)
 
     def test_resume_gives_the_same_bytes_as_an_uninterrupted_run(self):
         d = work("resume")

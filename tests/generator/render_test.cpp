@@ -7,6 +7,8 @@
 
 #include "core/parallel.h"
 #include "generator/scene_builder.h"
+#include "labels/masks.h"
+#include "labels/visibility.h"
 
 using namespace dg;
 
@@ -665,4 +667,33 @@ TEST(Render, GlassSlabTransmitsTheFresnelSeries) {
     EXPECT_NEAR(mean, want, 0.015) << mode;
     EXPECT_LT(hi, 1.6f) << mode;
   }
+}
+
+// The contrast written with each annotation tells labelled scratches that the light shows from
+// those it leaves invisible (labels/visibility.h). Under the low bar light from +v (dark field) a
+// scratch along u turns a wall to the light and shines (measured: L* 45 above its ring); one along
+// v turns its walls sideways and stays as dark as the plate (-0.5), though both are labelled alike.
+TEST(Render, ContrastTellsAVisibleScratchFromAnInvisibleOne) {
+  const std::string cfg =
+      "part: {type: plate, width_mm: 20, height_mm: 20}\n"
+      "material: {type: metal, metal: aluminium, roughness: 0.15}\n"
+      "lights:\n" + kBarLight + "  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n"
+      "camera: {fov_deg: 8, position: [0, 0, 60], target: [0, 0, 0]}\n"
+      "render: {resolution: [64, 64], spp: 2, max_bounces: 3, scratches: groove}\n"
+      "defects:\n"
+      "  - {type: scratch, count: 1, orientation_deg: 0, length_mm: 20, force_kg: 2, hardness_hv: 30, center: [0.5, 0.42]}\n"
+      "  - {type: scratch, count: 1, orientation_deg: 90, length_mm: 20, force_kg: 2, hardness_hv: 30, center: [0.58, 0.5]}\n";
+  Sample s;
+  const RenderFrame f = renderConfig(cfg, true, true, &s);
+  const Image<uint16_t> inst = instanceMask(CoverageFrame{f.dominant, f.coverage, s.instances});
+  const std::vector<InstanceContrast> c = instanceContrast(inst, f.rgb, kContrastRingPixels);
+  ASSERT_EQ(c.size(), 2u);
+  for (const InstanceContrast& x : c) {
+    std::printf("[          ] scratch %d: %lld pixels, L* %.2f against its ring's %.2f (%lld pixels)\n", int(x.id),
+                static_cast<long long>(x.mask_pixels), x.mask_l, x.ring_l, static_cast<long long>(x.ring_pixels));
+    EXPECT_GT(x.mask_pixels, 60);
+    EXPECT_GT(x.ring_pixels, 200);
+  }
+  EXPECT_GT(c[0].delta_l, 20.0);
+  EXPECT_LT(std::fabs(c[1].delta_l), 3.0);
 }

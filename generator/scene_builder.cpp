@@ -1,6 +1,8 @@
 #include "generator/scene_builder.h"
 
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 #include <stdexcept>
 
 #include "core/error.h"
@@ -505,6 +507,24 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
             }
           } catch (const std::invalid_argument& e) {
             throw InputError(c.file, d.line, d.column, "'" + d.path + "': invalid scratch: " + e.what());
+          }
+          // A glass part made from an open surface is a slab thickness_mm thick: a groove as deep
+          // as that would cut it through, which no cross-section describes.
+          if (s.scene.material.kind == MaterialKind::Glass && ds.part->shell().triangleCount() > 0) {
+            const double deepest = sc->referenceProfile().depth() * sc->maxScale();
+            const double slab = mv["thickness_mm"].num();
+            auto fmtNumber = [](double v) {
+              std::ostringstream o;
+              o << std::setprecision(4) << v;
+              return o.str();
+            };
+            if (!(deepest < slab))
+              throw InputError(c.file, d.line, d.column,
+                               "'" + d.path + "': a scratch " + fmtNumber(deepest) + " mm deep (force_kg " +
+                                   fmtNumber(proc.force_kg) + ", hardness_hv " + fmtNumber(proc.hardness_hv) +
+                                   ") would cut through the glass, " + fmtNumber(slab) +
+                                   " mm thick (material.thickness_mm); expected a shallower scratch or a "
+                                   "thicker part");
           }
           sc->setBumpShading(scratch_mode == "normal_map");
           std::string suffix = paths.size() > 1 ? "#" + std::to_string(j) : "";

@@ -262,6 +262,13 @@ class BadInput(unittest.TestCase):
         many = base.replace("max_bounces", "max_bounce").replace("spp: 2", "spp: two")
         p = self.expect_error(["validate", self.config(d, many)], "bad.yaml:21:8", "bad.yaml:22:3",
                               "2 error(s)", lines=3)
+        # A scratch as deep as the glass slab is thick would cut it through: found when the samples
+        # are drawn, before anything is written.
+        deep = base.replace("type: car_paint\n  base_color: [{uniform: [0.1, 0.8]}, 0.2, 0.1]",
+                            "type: glass\n  thickness_mm: 0.3") + \
+            "  - type: scratch\n    count: 1\n    force_kg: 50\n    hardness_hv: 10\n"
+        self.expect_error(["generate", self.config(d, deep), "--out", out], "bad.yaml:32:5",
+                          "mm deep (force_kg 50, hardness_hv 10) would cut through the glass, 0.3 mm thick", out=out)
 
     def test_mesh_errors(self):
         d = work("bad_mesh")

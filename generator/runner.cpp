@@ -91,11 +91,15 @@ void writeSampleFiles(const fs::path& out, const Config& cfg, const Sample& s, c
   std::string id = idName(s.index);
   auto t0 = Clock::now();
   std::string png = r["png"].str();
-  // The image as written to the PNG (and as the contrast below sees it): exposure applied.
-  ImageF img = f.rgb;
+  // The image as written to the PNG (and as the contrast below sees it): exposure applied, in a
+  // copy only where there is exposure to apply.
   const float gain = std::exp2(float(r["exposure_stops"].num()));
-  if (gain != 1.0f)
-    for (float& v : img.data) v *= gain;
+  ImageF exposed;
+  if (gain != 1.0f) {
+    exposed = f.rgb;
+    for (float& v : exposed.data) v *= gain;
+  }
+  const ImageF& img = gain != 1.0f ? exposed : f.rgb;
   if (png != "none") {
     fs::path p = out / "images" / (id + ".png");
     writeAtomically(p, [&](const fs::path& tmp) {

@@ -513,18 +513,13 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
           if (s.scene.material.kind == MaterialKind::Glass && ds.part->shell().triangleCount() > 0) {
             const double deepest = sc->referenceProfile().depth() * sc->maxScale();
             const double slab = mv["thickness_mm"].num();
-            auto fmtNumber = [](double v) {
-              std::ostringstream o;
-              o << std::setprecision(4) << v;
-              return o.str();
-            };
-            if (!(deepest < slab))
-              throw InputError(c.file, d.line, d.column,
-                               "'" + d.path + "': a scratch " + fmtNumber(deepest) + " mm deep (force_kg " +
-                                   fmtNumber(proc.force_kg) + ", hardness_hv " + fmtNumber(proc.hardness_hv) +
-                                   ") would cut through the glass, " + fmtNumber(slab) +
-                                   " mm thick (material.thickness_mm); expected a shallower scratch or a "
-                                   "thicker part");
+            if (!(deepest < slab)) {
+              std::ostringstream m;
+              m << std::setprecision(4) << "'" << d.path << "': a scratch " << deepest << " mm deep (force_kg "
+                << proc.force_kg << ", hardness_hv " << proc.hardness_hv << ") would cut through the glass, " << slab
+                << " mm thick (material.thickness_mm); expected a shallower scratch or a thicker part";
+              throw InputError(c.file, d.line, d.column, m.str());
+            }
           }
           sc->setBumpShading(scratch_mode == "normal_map");
           std::string suffix = paths.size() > 1 ? "#" + std::to_string(j) : "";

@@ -403,6 +403,23 @@ class Tracer {
     }
   }
 
+  // The nearest area light that `ray` meets before the distance `t` (its index, its distance into
+  // `t`), or -1. Emitters are not in the BVH; they are tested analytically against the part's hit
+  // distance. The camera (`camera`) does not see those in its lens plane (visible_to_camera).
+  int nearestEmitter(const DiffRay& ray, bool camera, float& t) const {
+    int nearest = -1;
+    for (size_t i = 0; i < s_.lights.area.size(); ++i) {
+      const AreaLight& al = s_.lights.area[i];
+      if (camera && !al.visible_to_camera) continue;
+      float ti;
+      if (al.intersect(ray.o, ray.d, 0.0f, t, ti)) {
+        t = ti;
+        nearest = int(i);
+      }
+    }
+    return nearest;
+  }
+
   // Whether an area light other than `self` faces `origin` across the way to a light sample at
   // distance `dist` along wl. A path's ray meets the nearest emitter's front and stops there
   // (continuePath, emitterToward), so the emitter hides what lies behind it from its BSDF
@@ -508,18 +525,8 @@ class Tracer {
         }
         plate = nullptr;
       }
-      // Emitters are not in the BVH; test them analytically against the part's hit distance.
-      int light_hit = -1;
       float tl = h.t;
-      for (size_t i = 0; i < s_.lights.area.size(); ++i) {
-        const AreaLight& al = s_.lights.area[i];
-        if (depth == 0 && !al.visible_to_camera) continue;
-        float t;
-        if (al.intersect(ray.o, ray.d, 0.0f, tl, t)) {
-          tl = t;
-          light_hit = int(i);
-        }
-      }
+      const int light_hit = nearestEmitter(ray, depth == 0, tl);
       if (light_hit >= 0) {
         const AreaLight& al = s_.lights.area[light_hit];
         float w = 1.0f;
@@ -897,10 +904,8 @@ class Tracer {
   // with them): it must reach the part before any emitter the camera sees, and hit its chart.
   bool footprintHasGrooves(const DiffRay& ray, const Hit& h, std::vector<GrooveSet>& sets) const {
     if (!h.hit || st_.max_bounces < 1) return false;
-    for (const AreaLight& al : s_.lights.area) {
-      float t;
-      if (al.visible_to_camera && al.intersect(ray.o, ray.d, 0.0f, h.t, t)) return false;
-    }
+    float t = h.t;
+    if (nearestEmitter(ray, true, t) >= 0) return false;
     const SurfacePoint sp = surface(h, ray, true);
     return sp.uv_ok && gatherGrooves(sp, h, -ray.d, sets);
   }

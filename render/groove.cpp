@@ -277,12 +277,19 @@ Vec2d pointOn(const Section& s, int k, double t) {
 // Merge (Bosch 2007 §4.2.3.1, Eq. 4.2)
 // ------------------------------------------------------------------------------------------------
 
+// Where profiles overlap, material removed by any of them is gone and material piled up by any
+// of them stays: the surface is the lowest of the heights where one is below the base (w < 0), else
+// the highest (the base w = 0 counted as a height). This is the composite height of the explicit
+// geometry (scratchHeight) and of the polygons (groove_area.cpp), so that all three describe the
+// same surface; a lower envelope everywhere would shave one groove's pile-up down to the flank of
+// the next one's (two parallel scratches 0.12 mm apart, under the bar light: 3.5% of pixels at
+// S-CIELAB dE >= 10 against the explicit geometry, 0% with the common rule).
 // A sweep over b through every vertex of every placed profile: on each interval between
-// consecutive vertex positions every profile defined there is linear, so the merged surface is
-// the lower envelope of those lines (cut at their crossings), the flat base w = 0 where no
-// profile is defined; at each vertex position the surface steps vertically from the lowest
-// left-hand limit to the lowest right-hand limit. A single profile is reproduced verbatim;
-// overlapping ones give min(w), keeping the earlier profile (in order of b) on exact ties.
+// consecutive vertex positions every profile defined there is linear, so the merged surface
+// follows one of those lines between their crossings and their zero crossings; the flat base
+// w = 0 where no profile is defined; at each vertex position the surface steps vertically from
+// the left-hand limit to the right-hand limit. A single profile is reproduced verbatim; on exact
+// ties the earlier profile (in order of b) is kept.
 // (A zero-width vertical slit down and up again at one b is not representable as a height step
 // and is lost where profiles overlap; nothing removes material there anyway.)
 Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
@@ -328,14 +335,19 @@ Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
   thread_local std::vector<double> ru, lv, cuts;
   for (size_t i = 0; i < bs.size(); ++i) {
     const double b = bs[i];
-    // Vertical step at b to the lowest right-hand limit of the profiles continuing past b.
-    double wTo = kInf;
+    // Vertical step at b to the composite of the right-hand limits of the profiles continuing
+    // past b.
+    double lowest = 0, highest = 0;
     for (const Placed& p : ps)
-      if (p.lo <= b && b < p.hi) wTo = std::min(wTo, rightValue(p, b));
-    verticalStep(out, ps, b, wTo == kInf ? 0.0 : wTo);
+      if (p.lo <= b && b < p.hi) {
+        const double w = rightValue(p, b);
+        lowest = std::min(lowest, w);
+        highest = std::max(highest, w);
+      }
+    verticalStep(out, ps, b, lowest < 0 ? lowest : highest);
     if (i + 1 == bs.size()) break;
 
-    // Interval (u, v): lower envelope of the profiles spanning it.
+    // Interval (u, v): the composite of the profiles spanning it.
     const double u = b, v = bs[i + 1];
     active.clear();
     ru.clear();
@@ -360,14 +372,42 @@ Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
           if (x > u && x < v) cuts.push_back(x);
         }
       }
+    for (size_t a = 0; a < active.size(); ++a)  // where the lowest line may cross the base
+      if ((ru[a] < 0 && lv[a] > 0) || (ru[a] > 0 && lv[a] < 0)) {
+        const double x = u + (v - u) * ru[a] / (ru[a] - lv[a]);
+        if (x > u && x < v) cuts.push_back(x);
+      }
     cuts.push_back(v);
     std::sort(cuts.begin(), cuts.end());
     cuts.erase(std::unique(cuts.begin(), cuts.end()), cuts.end());
+    // Heights this far from 0 are 0 (a line through a crossing point, evaluated there).
+    double scale = 0;
+    for (size_t a = 0; a < active.size(); ++a) scale = std::max({scale, std::abs(ru[a]), std::abs(lv[a])});
+    const double tiny = 1e-12 * scale;
+    int was_below = -1;  // the previous piece's branch: 1 below the base, 0 not, -1 none yet
     for (size_t c = 0; c + 1 < cuts.size(); ++c) {
       const double mid = 0.5 * (cuts[c] + cuts[c + 1]);
-      size_t win = 0;
-      for (size_t a = 1; a < active.size(); ++a)
-        if (value(a, mid) < value(win, mid)) win = a;  // ties keep the earlier profile
+      size_t low = 0, high = 0;
+      for (size_t a = 1; a < active.size(); ++a) {  // ties keep the earlier profile
+        if (value(a, mid) < value(low, mid)) low = a;
+        if (value(a, mid) > value(high, mid)) high = a;
+      }
+      const bool below = value(low, mid) < 0;
+      const size_t win = below ? low : high;
+      // Where the lowest line rises through the base the surface steps up from 0 to the highest
+      // line (a groove's edge cutting through another's pile-up); where it falls through the base,
+      // down from the highest line to 0.
+      // At the interval's start the step at b, taken with the heights at b, may have chosen the
+      // other branch: a line that leaves the base there downwards under a pile-up. Step again.
+      if (was_below >= 0 && int(below) != was_below) {
+        if (was_below) out.pts.back().y = 0.0;
+        const double w0 = below ? 0.0 : value(win, cuts[c]);
+        if (std::abs(w0 - out.pts.back().y) > tiny) verticalStep(out, ps, cuts[c], w0);
+        else out.pts.back().y = w0;
+      } else if (was_below < 0 && std::abs(ru[win] - out.pts.back().y) > tiny) {
+        verticalStep(out, ps, u, ru[win]);
+      }
+      was_below = int(below);
       const double x = cuts[c + 1];
       const double w = x == v ? lv[win] : value(win, x);
       emit(out, {x, w}, layerSpanning(ps[active[win]], u));

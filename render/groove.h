@@ -39,9 +39,10 @@ struct PlacedProfile {
 
 // Concatenates the placed profiles in order of b and adds flat facets (layer 0) from -extent to
 // the first and from the last to +extent, and between profiles. Profiles that overlap in b (which
-// Bosch excludes) are merged by keeping, at every b, the lower surface (the union of the removed
-// material) — implemented by clipping the later profile against the earlier one. extent must be
-// at least the farthest projected footprint coordinate the caller will use.
+// Bosch excludes) are merged as the explicit geometry composes them (scratchHeight): at every b the
+// lowest height where one is below the base (what any groove removes stays removed), else the
+// highest (every pile-up stays), with vertical steps where a groove's edge cuts through a pile-up.
+// extent must be at least the farthest projected footprint coordinate the caller will use.
 Section merge(const std::vector<PlacedProfile>& grooves, double extent);
 
 // The footprint's weighting along the base line (footprint-centred): the pixel footprint is a

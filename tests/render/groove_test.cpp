@@ -657,7 +657,10 @@ TEST(Groove, MergeKeepsVerticalFacetsAndLayers) {
   EXPECT_EQ(m.pts[4].y, -0.5);
 }
 
-TEST(Groove, MergeOverlapKeepsLowerSurface) {
+// Overlapping profiles: removed material stays removed, piled-up material stays piled up. The
+// surface is the lowest height where one is below the base, else the highest (the base counted),
+// as in the explicit geometry's scratchHeight and the polygons of groove_area.
+TEST(Groove, MergeOverlapRemovesWhatAnyGrooveRemovesAndKeepsEveryPileUp) {
   Rand rnd(7);
   for (int c = 0; c < 300; ++c) {
     std::vector<Prof> ps;
@@ -678,20 +681,21 @@ TEST(Groove, MergeOverlapKeepsLowerSurface) {
       EXPECT_LE(s.pts[k].x, s.pts[k + 1].x);
       EXPECT_FALSE(s.pts[k].x == s.pts[k + 1].x && s.pts[k].y == s.pts[k + 1].y);
     }
-    // At generic b the merged height is the lowest of the profiles defined there (0 if none).
+    // At generic b the merged height is the lowest of the profiles defined there where that is
+    // below 0, else the highest of them and 0; its scratchHeight as in scratch_geometry.cpp.
     for (int i = 0; i < 400; ++i) {
       const double b = rnd(-extent, extent);
-      double want = 1e300;
+      double lowest = 0, highest = 0;
       for (int j = 0; j < g; ++j) {
         const double lo = ps[j].pts.front().x + off[j], hi = ps[j].pts.back().x + off[j];
         if (b > lo && b < hi) {
           std::vector<Vec2d> q = ps[j].pts;
           for (Vec2d& p : q) p.x += off[j];
-          want = std::min(want, heightAt(q, b));
+          lowest = std::min(lowest, heightAt(q, b));
+          highest = std::max(highest, heightAt(q, b));
         }
       }
-      if (want == 1e300) want = 0;
-      EXPECT_NEAR(heightAt(s.pts, b), want, 1e-12) << "case " << c << " b " << b;
+      EXPECT_NEAR(heightAt(s.pts, b), lowest < 0 ? lowest : highest, 1e-12) << "case " << c << " b " << b;
     }
   }
   // Two V-grooves overlapping: the shallower one only shows where it is deeper.
@@ -714,6 +718,27 @@ TEST(Groove, MergeOverlapKeepsLowerSurface) {
     if (in_shallow_part) {
       EXPECT_EQ(s.layer[k], 2) << k;
     }
+  }
+
+  // Two grooves with pile-ups (layer 0) 0.12 apart: the second's outer flank does not shave the
+  // first's pile-up down (a lower envelope would), and where the pile-ups overlap the higher one
+  // stands; the second's groove cuts through the first's pile-up.
+  const Prof piled{{{-0.1, 0}, {-0.06, 0.02}, {-0.04, 0}, {0, -0.03}, {0.04, 0}, {0.06, 0.02}, {0.1, 0}},
+                   {0, 0, 1, 1, 0, 0}};
+  const Section two = merge({PlacedProfile{&piled.pts, &piled.layer, 0, false},
+                             PlacedProfile{&piled.pts, &piled.layer, 0.12, false}},
+                            0.5);
+  // Between 0.02 and 0.1 the first's right pile-up (peak 0.02 at 0.06) meets the second's left
+  // one (from 0 at 0.02 up to 0.02 at 0.06, down to 0 at 0.08, into its groove).
+  EXPECT_NEAR(heightAt(two.pts, 0.03), -0.0075, 1e-15); // the first's groove is not filled by the second's pile-up
+  EXPECT_NEAR(heightAt(two.pts, 0.05), 0.015, 1e-15);   // the second's, higher than the first's 0.01
+  EXPECT_NEAR(heightAt(two.pts, 0.06), 0.02, 1e-15);    // both peaks
+  EXPECT_NEAR(heightAt(two.pts, 0.07), 0.015, 1e-15);   // the first's, higher than the second's 0.01
+  EXPECT_NEAR(heightAt(two.pts, 0.09), -0.0075, 1e-15); // the second's groove cuts the first's pile-up
+  EXPECT_NEAR(heightAt(two.pts, 0.12), -0.03, 1e-15);
+  for (size_t k = 0; k < two.facets(); ++k) {
+    const double mid = 0.5 * (two.pts[k].x + two.pts[k + 1].x);
+    if (mid > 0.04 && mid < 0.08) EXPECT_EQ(two.layer[k], 0) << k;  // pile-up, whichever profile's
   }
 }
 

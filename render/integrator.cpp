@@ -808,7 +808,8 @@ class Tracer {
   bool gatherGrooves(const SurfacePoint& sp, const Hit& h, Vec3f wo_w, std::vector<GrooveSet>& sets) const {
     sets.clear();
     if (!outerSide(h, wo_w)) return false;
-    float enlarge = (max_height_ + max_depth_) * std::max(viewTan(sp, wo_w), tan_light_max_);
+    const float view_reach = (max_height_ + max_depth_) * viewTan(sp, wo_w);
+    float enlarge = std::max(view_reach, (max_height_ + max_depth_) * tan_light_max_);
     thread_local std::vector<NearGroove> near;
     nearGrooves(sp, enlarge, near);
     if (near.empty()) return false;
@@ -847,7 +848,7 @@ class Tracer {
       }
       // An end inside the footprint: polygons, unless past their caps (then the end blend).
       if (sets.back().end_share < 1.0f) {
-        sets.back().area = st_.groove_polygons && buildArea(sp, near, ref, enlarge, sets.back());
+        sets.back().area = st_.groove_polygons && buildArea(sp, near, ref, enlarge, view_reach, sets.back());
         ++(sets.back().area ? counts_.polygons : counts_.fallbacks);
       } else {
         ++counts_.sections;
@@ -857,7 +858,7 @@ class Tracer {
     // Crossings: polygons over all the grooves near the footprint.
     if (st_.groove_polygons) {
       sets.emplace_back();
-      if (buildArea(sp, near, ref, enlarge, sets.back())) {
+      if (buildArea(sp, near, ref, enlarge, view_reach, sets.back())) {
         sets.back().area = true;
         ++counts_.polygons;
         return true;
@@ -916,7 +917,7 @@ class Tracer {
   // the frame of near[ref]. False when it cannot be built (a degenerate footprint, or more grooves
   // or pieces than groove::area allows): the caller falls back.
   bool buildArea(const SurfacePoint& sp, const std::vector<NearGroove>& near, size_t ref, float enlarge,
-                 GrooveSet& gs) const {
+                 float view_reach, GrooveSet& gs) const {
     namespace ga = groove::area;
     if (!grooveFrame(sp, near[ref].pp.tangent, gs.T, gs.B, gs.W)) return false;
     gs.F = sp.p;
@@ -934,13 +935,6 @@ class Tracer {
     if (!(fp.area() > 1e-16)) return false;
     Vec2d lo = fp.v[0], hi = fp.v[0];
     fp.extend(lo, hi);
-    // The region whose surface can be seen, or can hide or shadow what is seen (§4.2.1).
-    const double R = double(enlarge) + 1e-3;
-    ga::Poly region;
-    region.push({lo.x - R, lo.y - R});
-    region.push({hi.x + R, lo.y - R});
-    region.push({hi.x + R, hi.y + R});
-    region.push({lo.x - R, hi.y + R});
     thread_local std::vector<Profile> profiles;
     thread_local std::vector<ga::Groove> grooves;
     profiles.clear();
@@ -972,7 +966,28 @@ class Tracer {
       grooves.push_back(g);
     }
     if (grooves.empty()) return false;
-    return gs.surface.build(region, grooves);
+    // The region whose surface can be seen, or can hide or shadow what is seen (§4.2.1): the
+    // footprint's box enlarged by `enlarge`. Where its pieces pass the cap (many grooves close
+    // together, cut pile-ups), the reach toward the lights is quartered before the blend is
+    // used: a shadow cast from farther is lost, and a ray reflected out of the region leaves the
+    // grooves, but the crossing itself is still integrated exactly; the reach toward the viewer
+    // (`view_reach`) is always kept, so what hides the footprint is never lost. On the accuracy
+    // test's `dense` scene (6 + 6 crossing scratches under the bar light) no footprint falls back
+    // any more, and the pixels >= 10 went from 2.27% to 0.02% (docs/grooves.md, "Cost bound and
+    // fallback").
+    double last = -1;
+    for (double f : {1.0, 0.25}) {  // (adding 1/2 cost 15% more for 0.01 less mean dE)
+      const double R = std::max(double(view_reach), f * double(enlarge)) + 1e-3;
+      if (R == last) continue;
+      last = R;
+      ga::Poly region;
+      region.push({lo.x - R, lo.y - R});
+      region.push({hi.x + R, lo.y - R});
+      region.push({hi.x + R, hi.y + R});
+      region.push({lo.x - R, hi.y + R});
+      if (gs.surface.build(region, grooves)) return true;
+    }
+    return false;
   }
 
   // The section of the grooves parallel to near[ref] (within 2 degrees), in its frame.

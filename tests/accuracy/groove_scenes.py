@@ -89,6 +89,25 @@ LAYOUTS = {
     hardness_hv: 30
     center: [0.5, 0.496]
 """,
+    # Six scratches along u crossed by six along v, each set in a 3.2 mm band: crossings whose
+    # footprints reach so many pile-ups that the polygons pass their cap of pieces at the full
+    # shadow reach (docs/grooves.md, "Cost bound and fallback").
+    "dense": """
+  - type: scratch
+    count: 6
+    orientation_deg: 0
+    length_mm: 9
+    force_kg: 2
+    hardness_hv: 30
+    region: [0.48, 0.42, 0.52, 0.58]
+  - type: scratch
+    count: 6
+    orientation_deg: 90
+    length_mm: 9
+    force_kg: 1.5
+    hardness_hv: 30
+    region: [0.42, 0.48, 0.58, 0.52]
+""",
     # Twelve scratches in all directions through a small spot: past the polygons' caps (at most
     # eight grooves per footprint), so the renderer's fallback blend is used there.
     "star": """

@@ -120,6 +120,39 @@ Vec2f PartGeometry::sampleSurfaceUv(double u0, double u1, double u2) const {
   return mesh_.uvs[f[0]] * float(b0) + mesh_.uvs[f[1]] * float(b1) + mesh_.uvs[f[2]] * float(b2);
 }
 
+bool PartGeometry::sampleSurfaceUvIn(const Box2& box, Rng& rng, Vec2f& out, int tries) const {
+  if (mesh_.uvs.empty()) return false;
+  std::vector<uint32_t> tris;
+  std::vector<double> cdf;
+  double total = 0;
+  for (size_t t = 0; 3 * t + 2 < mesh_.indices.size(); ++t) {
+    const uint32_t* f = &mesh_.indices[3 * t];
+    const Vec2f a = mesh_.uvs[f[0]], b = mesh_.uvs[f[1]], c = mesh_.uvs[f[2]];
+    if (std::max({a.x, b.x, c.x}) < box.lo.x || std::min({a.x, b.x, c.x}) > box.hi.x ||
+        std::max({a.y, b.y, c.y}) < box.lo.y || std::min({a.y, b.y, c.y}) > box.hi.y)
+      continue;
+    const double area = area_cdf_[t] - (t > 0 ? area_cdf_[t - 1] : 0.0);  // by area on the surface
+    if (!(area > 0)) continue;
+    total += area;
+    tris.push_back(uint32_t(t));
+    cdf.push_back(total);
+  }
+  if (tris.empty()) return false;
+  for (int i = 0; i < tries; ++i) {
+    const double target = rng.uniformD() * total;
+    size_t k = size_t(std::upper_bound(cdf.begin(), cdf.end(), target) - cdf.begin());
+    k = std::min(k, cdf.size() - 1);
+    const double s = std::sqrt(rng.uniformD()), b1 = 1 - s, b2 = rng.uniformD() * s, b0 = 1 - b1 - b2;
+    const uint32_t* f = &mesh_.indices[3 * size_t(tris[k])];
+    const Vec2f uv = mesh_.uvs[f[0]] * float(b0) + mesh_.uvs[f[1]] * float(b1) + mesh_.uvs[f[2]] * float(b2);
+    if (box.contains(uv)) {
+      out = uv;
+      return true;
+    }
+  }
+  return false;
+}
+
 void PartGeometry::computeOcclusion(int rays, float max_distance) {
   size_t nv = mesh_.positions.size();
   occlusion_.assign(nv, 0.0f);

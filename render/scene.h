@@ -6,6 +6,7 @@
 
 #include <embree3/rtcore.h>
 
+#include "core/rng.h"
 #include "defects/defect.h"
 #include "render/mesh.h"
 
@@ -43,6 +44,10 @@ class PartGeometry {
   // A point drawn uniformly by area on the surface, returned as its UV (mm); u0 picks the
   // triangle, (u1, u2) the point in it.
   Vec2f sampleSurfaceUv(double u0, double u1, double u2) const;
+  // A point drawn uniformly by area on the surface whose UV lies in `box` (mm), by rejection over
+  // the triangles whose UV bounds meet the box (so a small region of a large part is found in a
+  // few draws); false when there are none or `tries` draws all fell outside. Deterministic in rng.
+  bool sampleSurfaceUvIn(const Box2& box, Rng& rng, Vec2f& out, int tries = 10000) const;
   // Ambient occlusion per vertex (0 open .. 1 enclosed), for defects that gather in cavities:
   // the fraction of cosine-distributed rays from the vertex that hit the part within max_distance.
   // Computed once per dataset, only when asked for; deterministic (counter-based rays).

@@ -120,9 +120,10 @@ class GrooveAccuracy(unittest.TestCase):
 
     def test_dense_crossings_bar(self):
         """Six scratches crossed by six (groove_scenes.LAYOUTS["dense"]) under the bar light: at the
-        full shadow reach a crossing's pieces pass their cap; the polygons are then built over a
-        quarter of the reach, and no footprint falls back to the blend. With the blend there
-        (measured 2026-11-26) it gave mean dE 1.63 and 2.27% of pixels >= 10; now 0.53 and 0.02%."""
+        full shadow reach a crossing's pieces pass their cap; the polygons are then built over
+        half or a quarter of the reach, and no footprint falls back to the blend. With the blend
+        there (measured 2026-11-26) it gave mean dE 1.63 and 2.27% of pixels >= 10; now 0.52 and
+        0.02%."""
         self.check("dense", "bar")
         with open(os.path.join(ARGS.work, "dense_bar_groove", "out", "manifest.json")) as f:
             used = json.load(f)["last_run"]["timings"]["samples"][0]["groove_footprints"]

@@ -937,8 +937,11 @@ class Tracer {
     fp.extend(lo, hi);
     thread_local std::vector<Profile> profiles;
     thread_local std::vector<ga::Groove> grooves;
+    thread_local std::vector<double> near_mm;
+    thread_local std::vector<ga::Groove> within;
     profiles.clear();
     grooves.clear();
+    near_mm.clear();
     profiles.reserve(near.size());
     for (size_t i = 0; i < near.size(); ++i) {
       const NearGroove& ng = near[i];
@@ -964,6 +967,9 @@ class Tracer {
       g.interfaces = &ng.sc->interfaces();
       g.id = int(i);
       grooves.push_back(g);
+      // How near the footprint's centre the cross-section comes (mm; <= 0 over it).
+      const auto& q = profiles.back().pts;
+      near_mm.push_back(double(ng.pp.distance) * mm - std::max(std::fabs(q.front().x), std::fabs(q.back().x)));
     }
     if (grooves.empty()) return false;
     // The region whose surface can be seen, or can hide or shadow what is seen (§4.2.1): the
@@ -975,6 +981,9 @@ class Tracer {
     // test's `dense` scene (6 + 6 crossing scratches under the bar light) no footprint falls back
     // any more, and the pixels >= 10 went from 2.27% to 0.02% (docs/grooves.md, "Cost bound and
     // fallback").
+    // A smaller region also leaves out the grooves that do not reach it, which counts for the cap
+    // of grooves per footprint (a groove outside the region adds no piece).
+    const double fp_r = std::max(std::hypot(lo.x, lo.y), std::hypot(hi.x, hi.y));
     double last = -1;
     for (double f : {1.0, 0.5, 0.25}) {
       const double R = std::max(double(view_reach), f * double(enlarge)) + 1e-3;
@@ -985,7 +994,10 @@ class Tracer {
       region.push({hi.x + R, lo.y - R});
       region.push({hi.x + R, hi.y + R});
       region.push({lo.x - R, hi.y + R});
-      if (gs.surface.build(region, grooves)) return true;
+      within.clear();
+      for (size_t i = 0; i < grooves.size(); ++i)
+        if (near_mm[i] <= R * std::sqrt(2.0) + fp_r) within.push_back(grooves[i]);
+      if (!within.empty() && gs.surface.build(region, within)) return true;
     }
     return false;
   }

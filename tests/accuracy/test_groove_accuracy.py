@@ -133,9 +133,10 @@ class GrooveAccuracy(unittest.TestCase):
 
     def test_star_past_the_polygon_caps(self):
         """Twelve grooves through one spot: footprints with more than eight grooves fall back to
-        the blend of directions (docs/grooves.md). Not one of the issue's target scenes; the bounds
-        are regression bounds (measured 2026-11-25: 1.53% of pixels >= 10, mean 0.91, against
-        geometry at 256 spp)."""
+        the blend of directions (docs/grooves.md) where a quarter of the shadow reach still holds
+        more than eight. Not one of the issue's target scenes; the bounds are regression bounds
+        (measured against geometry at 256 spp: 2026-11-25 1.53% of pixels >= 10, mean 0.91;
+        2026-11-26, with the smaller reaches, 0.71% and 0.66)."""
         ref = render("star_bar_ref", "star", "bar", "geometry", 256, noise_seed=1)
         grv = render("star_bar_groove", "star", "bar", "groove", 4)
         with open(os.path.join(ARGS.work, "star_bar_groove", "out", "manifest.json")) as f:
@@ -145,8 +146,8 @@ class GrooveAccuracy(unittest.TestCase):
               "footprints %s" % (st["mean"], st["pct_ge_10"], used), flush=True)
         self.assertGreater(used["fallbacks"], 0)
         self.assertGreater(used["polygons"], 0)
-        self.assertLess(st["pct_ge_10"], 2.0)
-        self.assertLess(st["mean"], 1.2)
+        self.assertLess(st["pct_ge_10"], 1.0)
+        self.assertLess(st["mean"], 0.85)
 
 
 def _make(layout, light):

@@ -282,7 +282,7 @@ Vec2d pointOn(const Section& s, int k, double t) {
 // the highest (the base w = 0 counted as a height). This is the composite height of the explicit
 // geometry (scratchHeight) and of the polygons (groove_area.cpp), so that all three describe the
 // same surface; a lower envelope everywhere would shave one groove's pile-up down to the flank of
-// the next one's (two parallel scratches 0.12 mm apart, under the bar light: 3.5% of pixels at
+// the next one's (two parallel scratches 0.12 mm apart, under the bar light: 3.6% of pixels at
 // S-CIELAB dE >= 10 against the explicit geometry, 0% with the common rule).
 // A sweep over b through every vertex of every placed profile: on each interval between
 // consecutive vertex positions every profile defined there is linear, so the merged surface
@@ -380,7 +380,7 @@ Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
     cuts.push_back(v);
     std::sort(cuts.begin(), cuts.end());
     cuts.erase(std::unique(cuts.begin(), cuts.end()), cuts.end());
-    // Heights this far from 0 are 0 (a line through a crossing point, evaluated there).
+    // Steps shorter than this are rounding (lines evaluated at their own crossing points).
     double scale = 0;
     for (size_t a = 0; a < active.size(); ++a) scale = std::max({scale, std::abs(ru[a]), std::abs(lv[a])});
     const double tiny = 1e-12 * scale;
@@ -394,11 +394,11 @@ Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
       }
       const bool below = value(low, mid) < 0;
       const size_t win = below ? low : high;
-      // Where the lowest line rises through the base the surface steps up from 0 to the highest
+      // Where the lowest line rises through the base, the surface steps up from 0 to the highest
       // line (a groove's edge cutting through another's pile-up); where it falls through the base,
-      // down from the highest line to 0.
-      // At the interval's start the step at b, taken with the heights at b, may have chosen the
-      // other branch: a line that leaves the base there downwards under a pile-up. Step again.
+      // down from the highest line to 0. On the interval's first piece, the step at b (taken with
+      // the heights at b) may have chosen the other branch, for a line that leaves the base there
+      // downwards under a pile-up: then it steps again.
       if (was_below >= 0 && int(below) != was_below) {
         if (was_below) out.pts.back().y = 0.0;
         const double w0 = below ? 0.0 : value(win, cuts[c]);

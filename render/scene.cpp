@@ -114,6 +114,10 @@ Vec2f PartGeometry::sampleSurfaceUv(double u0, double u1, double u2) const {
   double target = u0 * area_cdf_.back();
   size_t t = size_t(std::upper_bound(area_cdf_.begin(), area_cdf_.end(), target) - area_cdf_.begin());
   t = std::min(t, area_cdf_.size() - 1);
+  return uvInTriangle(t, u1, u2);
+}
+
+Vec2f PartGeometry::uvInTriangle(size_t t, double u1, double u2) const {
   // Uniform barycentrics by the square-root warp (Osada et al. 2002, eq. 1).
   double s = std::sqrt(u1), b1 = 1 - s, b2 = u2 * s, b0 = 1 - b1 - b2;
   const uint32_t* f = &mesh_.indices[3 * t];
@@ -128,9 +132,10 @@ bool PartGeometry::sampleSurfaceUvIn(const Box2& box, Rng& rng, Vec2f& out, int 
   for (size_t t = 0; 3 * t + 2 < mesh_.indices.size(); ++t) {
     const uint32_t* f = &mesh_.indices[3 * t];
     const Vec2f a = mesh_.uvs[f[0]], b = mesh_.uvs[f[1]], c = mesh_.uvs[f[2]];
-    if (std::max({a.x, b.x, c.x}) < box.lo.x || std::min({a.x, b.x, c.x}) > box.hi.x ||
-        std::max({a.y, b.y, c.y}) < box.lo.y || std::min({a.y, b.y, c.y}) > box.hi.y)
-      continue;
+    Box2 tb;
+    tb.lo = {std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y})};
+    tb.hi = {std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y})};
+    if (!box.overlaps(tb)) continue;
     const double area = area_cdf_[t] - (t > 0 ? area_cdf_[t - 1] : 0.0);  // by area on the surface
     if (!(area > 0)) continue;
     total += area;
@@ -142,9 +147,8 @@ bool PartGeometry::sampleSurfaceUvIn(const Box2& box, Rng& rng, Vec2f& out, int 
     const double target = rng.uniformD() * total;
     size_t k = size_t(std::upper_bound(cdf.begin(), cdf.end(), target) - cdf.begin());
     k = std::min(k, cdf.size() - 1);
-    const double s = std::sqrt(rng.uniformD()), b1 = 1 - s, b2 = rng.uniformD() * s, b0 = 1 - b1 - b2;
-    const uint32_t* f = &mesh_.indices[3 * size_t(tris[k])];
-    const Vec2f uv = mesh_.uvs[f[0]] * float(b0) + mesh_.uvs[f[1]] * float(b1) + mesh_.uvs[f[2]] * float(b2);
+    const double u1 = rng.uniformD(), u2 = rng.uniformD();
+    const Vec2f uv = uvInTriangle(tris[k], u1, u2);
     if (box.contains(uv)) {
       out = uv;
       return true;

@@ -57,6 +57,9 @@ class PartGeometry {
   Vec3f boundingCenter() const { return center_; }
 
  private:
+  // The UV of a point of triangle t, drawn uniformly by area from (u1, u2) in [0, 1)^2.
+  Vec2f uvInTriangle(size_t t, double u1, double u2) const;
+
   TriangleMesh mesh_, shell_;
   std::vector<Vec3f> shell_ng_;
   RTCScene scene_ = nullptr;

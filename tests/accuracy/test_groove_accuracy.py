@@ -47,6 +47,12 @@ def render(name, layout, light, mode, spp, noise_seed=0, part="plate", **scene):
     return os.path.join(d, "out", "images", "000000.png")
 
 
+def footprints(name):
+    """How the groove render `name` integrated its footprints: sections, polygons, fallbacks."""
+    with open(os.path.join(ARGS.work, name, "out", "manifest.json")) as f:
+        return json.load(f)["last_run"]["timings"]["samples"][0]["groove_footprints"]
+
+
 def compare(ref, test, name):
     out = os.path.join(ARGS.work, name + "_cmp")
     shutil.rmtree(out, ignore_errors=True)
@@ -125,8 +131,7 @@ class GrooveAccuracy(unittest.TestCase):
         there (measured 2026-11-26) it gave mean dE 1.63 and 2.27% of pixels >= 10; now 0.52 and
         0.02%."""
         self.check("dense", "bar")
-        with open(os.path.join(ARGS.work, "dense_bar_groove", "out", "manifest.json")) as f:
-            used = json.load(f)["last_run"]["timings"]["samples"][0]["groove_footprints"]
+        used = footprints("dense_bar_groove")
         print("dense     bar   footprints %s" % used, flush=True)
         self.assertEqual(used["fallbacks"], 0)
         self.assertGreater(used["polygons"], 0)
@@ -139,8 +144,7 @@ class GrooveAccuracy(unittest.TestCase):
         2026-11-26, with the smaller reaches, 0.71% and 0.66)."""
         ref = render("star_bar_ref", "star", "bar", "geometry", 256, noise_seed=1)
         grv = render("star_bar_groove", "star", "bar", "groove", 4)
-        with open(os.path.join(ARGS.work, "star_bar_groove", "out", "manifest.json")) as f:
-            used = json.load(f)["last_run"]["timings"]["samples"][0]["groove_footprints"]
+        used = footprints("star_bar_groove")
         st = compare(ref, grv, "star_bar")
         print("star      bar   groove@4spp vs geometry@256spp: mean dE %.3f, %.3f%% of pixels >= 10; "
               "footprints %s" % (st["mean"], st["pct_ge_10"], used), flush=True)

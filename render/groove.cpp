@@ -59,6 +59,7 @@ struct Placed {
   std::vector<Vec2d> pts;
   std::vector<int> layer;
   double lo = 0, hi = 0;
+  double offset = 0, rho = 0;  // PlacedProfile's
 };
 
 double lerpW(Vec2d a, Vec2d c, double b) {
@@ -94,13 +95,16 @@ int layerSpanning(const Placed& p, double u) {
   return p.layer[k];
 }
 
-// Appends a point to the section, with the layer of the facet that ends at it; repeated points
-// (zero-length facets) are dropped.
-void emit(Section& s, Vec2d q, int layer) {
+// Appends a point to the section, with the layer of the facet that ends at it and the placed
+// profile it lies on (`from`, an index into the sorted profiles; -1 for the base plane and for cuts
+// that no one profile's facet makes), recorded in `src`; repeated points (zero-length facets) are
+// dropped.
+void emit(Section& s, std::vector<int>& src, Vec2d q, int layer, int from) {
   if (!s.pts.empty()) {
     const Vec2d& last = s.pts.back();
     if (last.x == q.x && last.y == q.y) return;
     s.layer.push_back(layer);
+    src.push_back(from);
   }
   s.pts.push_back(q);
 }
@@ -111,7 +115,9 @@ void emit(Section& s, Vec2d q, int layer) {
 // it. A piece that no profile's vertical facet covers is a cut through material that another
 // profile's envelope exposes: above the base plane that is pile-up (layer 0, as Profile::withLayers
 // assigns), below it we keep the layer of the facet just emitted.
-void verticalStep(Section& out, const std::vector<Placed>& ps, double b, double wTo) {
+// The piece's profile (for its tilt) is the one whose vertical facet covers it, else one with a
+// vertex at b (a groove's edge), else none.
+void verticalStep(Section& out, std::vector<int>& src, const std::vector<Placed>& ps, double b, double wTo) {
   const double wFrom = out.pts.back().y;
   if (wFrom == wTo) return;
   const double lo = std::min(wFrom, wTo), hi = std::max(wFrom, wTo);
@@ -130,19 +136,22 @@ void verticalStep(Section& out, const std::vector<Placed>& ps, double b, double 
   double prev = wFrom;
   for (double w : levels) {
     const double mid = 0.5 * (prev + w);
-    int layer = -1;
-    for (const Placed& p : ps) {
+    int layer = -1, from = -1;
+    for (size_t j = 0; j < ps.size(); ++j) {
+      const Placed& p = ps[j];
       if (b < p.lo || b > p.hi || layer >= 0) continue;
       for (size_t k = 0; k + 1 < p.pts.size(); ++k) {
         const Vec2d a = p.pts[k], c = p.pts[k + 1];
+        if (from < 0 && (a.x == b || c.x == b)) from = int(j);
         if (a.x == b && c.x == b && mid >= std::min(a.y, c.y) && mid <= std::max(a.y, c.y)) {
           layer = p.layer[k];
+          from = int(j);
           break;
         }
       }
     }
     if (layer < 0) layer = (mid >= 0 || out.layer.empty()) ? 0 : out.layer.back();
-    emit(out, {b, w}, layer);
+    emit(out, src, {b, w}, layer, from);
     prev = w;
   }
 }
@@ -309,6 +318,8 @@ Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
       for (size_t k = 0; k + 1 < n; ++k) p.layer[k] = (*g.layer)[g.mirrored ? n - 2 - k : k];
     p.lo = p.pts.front().x;
     p.hi = p.pts.back().x;
+    p.offset = g.offset;
+    p.rho = g.rho;
     if (!(p.hi > p.lo)) continue;  // zero width: removes no material
     ps.push_back(std::move(p));
   }
@@ -330,7 +341,9 @@ Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
   bs.erase(std::unique(bs.begin(), bs.end()), bs.end());
 
   Section out;
-  emit(out, {start, 0.0}, 0);
+  thread_local std::vector<int> src;
+  src.clear();
+  emit(out, src, {start, 0.0}, 0, -1);
   thread_local std::vector<size_t> active;
   thread_local std::vector<double> ru, lv, cuts;
   for (size_t i = 0; i < bs.size(); ++i) {
@@ -344,7 +357,7 @@ Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
         lowest = std::min(lowest, w);
         highest = std::max(highest, w);
       }
-    verticalStep(out, ps, b, lowest < 0 ? lowest : highest);
+    verticalStep(out, src, ps, b, lowest < 0 ? lowest : highest);
     if (i + 1 == bs.size()) break;
 
     // Interval (u, v): the composite of the profiles spanning it.
@@ -359,7 +372,7 @@ Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
         lv.push_back(leftValue(ps[j], v));
       }
     if (active.empty()) {
-      emit(out, {v, 0.0}, 0);  // flat base surface between profiles
+      emit(out, src, {v, 0.0}, 0, -1);  // flat base surface between profiles
       continue;
     }
     auto value = [&](size_t a, double x) { return ru[a] + (lv[a] - ru[a]) * (x - u) / (v - u); };
@@ -402,16 +415,27 @@ Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
       if (was_below >= 0 && int(below) != was_below) {
         if (was_below) out.pts.back().y = 0.0;
         const double w0 = below ? 0.0 : value(win, cuts[c]);
-        if (std::abs(w0 - out.pts.back().y) > tiny) verticalStep(out, ps, cuts[c], w0);
+        if (std::abs(w0 - out.pts.back().y) > tiny) verticalStep(out, src, ps, cuts[c], w0);
         else out.pts.back().y = w0;
       } else if (was_below < 0 && std::abs(ru[win] - out.pts.back().y) > tiny) {
-        verticalStep(out, ps, u, ru[win]);
+        verticalStep(out, src, ps, u, ru[win]);
       }
       was_below = int(below);
       const double x = cuts[c + 1];
       const double w = x == v ? lv[win] : value(win, x);
-      emit(out, {x, w}, layerSpanning(ps[active[win]], u));
+      emit(out, src, {x, w}, layerSpanning(ps[active[win]], u), int(active[win]));
     }
+  }
+  // The facets' slopes along t from the force fades of their profiles.
+  bool fades = false;
+  for (const Placed& p : ps) fades = fades || p.rho != 0;
+  if (fades) {
+    out.tilt.assign(out.facets(), 0.0);
+    for (size_t k = 0; k < out.facets(); ++k)
+      if (src[k] >= 0) {
+        const Placed& p = ps[size_t(src[k])];
+        out.tilt[k] = -p.rho * dot(out.pts[k] - Vec2d(p.offset, 0.0), out.normal(k));
+      }
   }
   return out;
 }

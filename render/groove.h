@@ -21,10 +21,17 @@ namespace dg::groove {
 struct Section {
   std::vector<Vec2d> pts;
   std::vector<int> layer;
+  // Per facet (empty: all 0), the slope of the facet along the path that a force fade gives it:
+  // its 3-D normal is (tilt, normal(k)) in (t, b, w), normalised. A profile scaled by r(t) =
+  // 1 + rho t about its centre line (b = offset, w = 0) moves each facet line by rho times its
+  // distance from that centre per unit of t, so tilt = -rho (P - (offset, 0)).normal(k) for any
+  // point P of the facet (as the polygons' planes of render/groove_area.h have it).
+  std::vector<double> tilt;
   size_t facets() const { return pts.size() < 2 ? 0 : pts.size() - 1; }
   // Unit outward normal of facet k in (b, w): the facet direction turned +90 degrees,
   // (-dw, db) / len, so flat facets have (0, 1).
   Vec2d normal(size_t k) const;
+  double tiltOf(size_t k) const { return tilt.empty() ? 0.0 : tilt[k]; }
 };
 
 // One groove's profile placed in the footprint: its points are at b + offset (offset = B.(P - F):
@@ -35,6 +42,10 @@ struct PlacedProfile {
   const std::vector<int>* layer = nullptr;
   double offset = 0;
   bool mirrored = false;
+  // The force fade: the profile's relative change of scale per unit of the section's t (per mm;
+  // along the section's direction, so negated for a path that runs the other way). Gives its
+  // facets their Section::tilt.
+  double rho = 0;
 };
 
 // Concatenates the placed profiles in order of b and adds flat facets (layer 0) from -extent to

@@ -797,6 +797,15 @@ class Tracer {
     for (auto& q : p.pts) q.x *= mm_per_uv;
     return p;
   }
+  // How the cross-section's scale changes along the path at ng (the force fade, force keys and
+  // random perturbation of defects/scratch.h): its relative change per mm (k the scale there), by
+  // a central difference over 1e-3 of the path's length unit.
+  static double scaleSlope(const NearGroove& ng, float k, double mm_per_uv) {
+    const double len = ng.sc->path().length(), ds = 1e-3;
+    const double s0 = std::max(0.0, double(ng.pp.s) - ds), s1 = std::min(len, double(ng.pp.s) + ds);
+    if (!(s1 > s0)) return 0.0;
+    return (double(ng.sc->scaleAt(float(s1))) - ng.sc->scaleAt(float(s0))) / ((s1 - s0) * k * mm_per_uv);
+  }
 
   // Half-extent of a merged section: past `reach` (the farthest footprint coordinate in use) by
   // the largest projection of the grooves' heights at a capped grazing angle.
@@ -956,10 +965,8 @@ class Tracer {
       Vec2f rel = sp.uv - ng.pp.point;
       g.t0 = double(rel.x * ng.pp.tangent.x + rel.y * ng.pp.tangent.y) * mm;
       g.b0 = double(ng.pp.offset) * mm;
-      // The force fade: the scale's relative slope along the path (per mm of surface).
-      const double len = ng.sc->path().length(), ds = 1e-3;
-      double s0 = std::max(0.0, double(ng.pp.s) - ds), s1 = std::min(len, double(ng.pp.s) + ds);
-      if (s1 > s0) g.rho = (double(ng.sc->scaleAt(float(s1))) - ng.sc->scaleAt(float(s0))) / ((s1 - s0) * k * mm);
+      g.rho = scaleSlope(ng, k, mm);  // per mm of surface
+      const double len = ng.sc->path().length();
       g.t_lo = -double(ng.pp.s) * mm;
       g.t_hi = (len - double(ng.pp.s)) * mm;
       g.pts = &profiles.back().pts;
@@ -1042,6 +1049,9 @@ class Tracer {
       pl.layer = &profiles.back().layer;
       pl.offset = offset;
       pl.mirrored = sign < 0;
+      // A changing scale tilts the facets along the path (Section::tilt; the sign turns it to t0's
+      // way).
+      pl.rho = double(sign) * scaleSlope(ng, k, mm);
       placed.push_back(pl);
       if (share < 1.0f)
         end_share = std::min(end_share, share);
@@ -1096,7 +1106,9 @@ class Tracer {
     size_t facets() const { return sec.facets(); }
     Vec3f facetNormal(size_t k) const {
       Vec2d n2 = sec.normal(k);
-      return gs.B * float(n2.x) + gs.W * float(n2.y);
+      const double tilt = sec.tiltOf(k);
+      if (tilt == 0) return gs.B * float(n2.x) + gs.W * float(n2.y);
+      return normalize(gs.T * float(tilt) + gs.B * float(n2.x) + gs.W * float(n2.y));
     }
     int facetLayer(size_t k) const { return sec.layer[k]; }
     // Whether facet k and portion p face each other (each has a point in front of the other's line).

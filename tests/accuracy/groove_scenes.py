@@ -89,6 +89,40 @@ LAYOUTS = {
     hardness_hv: 30
     center: [0.5, 0.496]
 """,
+    # Four short scratches (1.6 mm) across the bar light's direction, each within the default
+    # force fade (2 mm) from end to end: their depth changes all along them, so their walls slope
+    # along the path, and under the bar light that moves their glints (docs/grooves.md, "Renderer",
+    # step 4).
+    "fades": """
+  - type: scratch
+    count: 1
+    orientation_deg: 37
+    length_mm: 1.6
+    force_kg: 2.34
+    hardness_hv: 60
+    center: [0.455, 0.465]
+  - type: scratch
+    count: 1
+    orientation_deg: 45
+    length_mm: 1.6
+    force_kg: 3
+    hardness_hv: 60
+    center: [0.545, 0.465]
+  - type: scratch
+    count: 1
+    orientation_deg: 30
+    length_mm: 1.6
+    force_kg: 1.5
+    hardness_hv: 60
+    center: [0.455, 0.535]
+  - type: scratch
+    count: 1
+    orientation_deg: 40
+    length_mm: 1.6
+    force_kg: 4
+    hardness_hv: 60
+    center: [0.545, 0.535]
+""",
     # Six scratches along u crossed by six along v, each set in a 3.2 mm band: crossings whose
     # footprints reach so many pile-ups that the polygons pass their cap of pieces at the full
     # shadow reach (docs/grooves.md, "Cost bound and fallback").

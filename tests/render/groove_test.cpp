@@ -738,8 +738,63 @@ TEST(Groove, MergeOverlapRemovesWhatAnyGrooveRemovesAndKeepsEveryPileUp) {
   EXPECT_NEAR(heightAt(two.pts, 0.12), -0.03, 1e-15);
   for (size_t k = 0; k < two.facets(); ++k) {
     const double mid = 0.5 * (two.pts[k].x + two.pts[k + 1].x);
-    if (mid > 0.04 && mid < 0.08) EXPECT_EQ(two.layer[k], 0) << k;  // pile-up, whichever profile's
+    if (mid > 0.04 && mid < 0.08) {
+      EXPECT_EQ(two.layer[k], 0) << k;  // pile-up, whichever profile's
+    }
   }
+}
+
+// A force fade scales a profile along the path, r(t) = 1 + rho t about its own origin, so its
+// facets slope along t. Each merged facet's tilt must be the slope of the merged surface itself:
+// -n_w dw/dt (the 3-D normal (tilt, n_b, n_w) is orthogonal to (1, 0, dw/dt)), with dw/dt from
+// merging the profiles scaled to t = +-h.
+TEST(Groove, MergeTiltsFacetsAsTheirFadingProfilesMove) {
+  // One V-groove deepening along t: its left wall (normal (1, 1)/sqrt2, 1/sqrt2 from the origin
+  // on the inside) goes down as t grows, so its normal leans towards +t: tilt = rho / sqrt2.
+  const Prof v = vGroove(1, 1);
+  PlacedProfile pv{&v.pts, &v.layer, 0.3, false};
+  pv.rho = 0.2;
+  const Section sv = merge({pv}, 3);
+  ASSERT_EQ(sv.tilt.size(), sv.facets());
+  for (size_t k = 0; k < sv.facets(); ++k) {
+    const double mid = 0.5 * (sv.pts[k].x + sv.pts[k + 1].x);
+    const double expect = mid < -0.7 || mid > 1.3 ? 0.0 : 0.2 / std::sqrt(2.0);
+    EXPECT_NEAR(sv.tilt[k], expect, 1e-15) << k;
+  }
+  // Without a fade there is no tilt.
+  EXPECT_TRUE(single(v, 0.3, 3).tilt.empty());
+
+  Rand rnd(11);
+  const double h = 1e-6, extent = 2.5;
+  int checked = 0;
+  for (int c = 0; c < 200; ++c) {
+    const int g = rnd.integer(1, 3);
+    std::vector<Prof> ps, plus, minus;
+    std::vector<PlacedProfile> placed, at_plus, at_minus;
+    for (int i = 0; i < g; ++i) ps.push_back(randomProfile(rnd, rnd(0.3, 1.5)));
+    plus = minus = ps;
+    for (int i = 0; i < g; ++i) {
+      const double off = rnd(-1, 0.5), rho = rnd(-2, 2);
+      const bool mirrored = rnd(0, 1) < 0.3;
+      for (Vec2d& q : plus[size_t(i)].pts) q = q * (1 + rho * h);
+      for (Vec2d& q : minus[size_t(i)].pts) q = q * (1 - rho * h);
+      placed.push_back({&ps[size_t(i)].pts, &ps[size_t(i)].layer, off, mirrored});
+      placed.back().rho = rho;
+      at_plus.push_back({&plus[size_t(i)].pts, &plus[size_t(i)].layer, off, mirrored});
+      at_minus.push_back({&minus[size_t(i)].pts, &minus[size_t(i)].layer, off, mirrored});
+    }
+    const Section s = merge(placed, extent), sp = merge(at_plus, extent), sm = merge(at_minus, extent);
+    ASSERT_EQ(s.tilt.size(), s.facets());
+    for (size_t k = 0; k < s.facets(); ++k) {
+      const Vec2d a = s.pts[k], b = s.pts[k + 1];
+      if (!(b.x - a.x > 1e-3)) continue;  // vertical or too short to difference across
+      const double mid = 0.5 * (a.x + b.x);
+      const double dwdt = (heightAt(sp.pts, mid) - heightAt(sm.pts, mid)) / (2 * h);
+      EXPECT_NEAR(s.tilt[k], -s.normal(k).y * dwdt, 1e-5 * (1 + std::fabs(dwdt))) << "case " << c << " facet " << k;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 1000);
 }
 
 }  // namespace

@@ -538,5 +538,36 @@ TEST(GrooveArea, AgreesWithLineSamplingOnASingleGroove) {
   }
 }
 
+// A groove whose scale changes along it (a force fade, rho per mm): the polygons' planes slope
+// along the path, and the 1-D section gives each facet the same slope as its tilt, so both
+// methods shade a facet with one normal: (-g.x, -g.y, 1) ~ (tilt, n_b, n_w) with t = x, b = y.
+TEST(GrooveArea, AFadingGroovesPlanesSlopeAsTheSectionsFacetsTilt) {
+  for (double rho : {0.8, -2.5}) {
+    Groove g = along({1, 0}, 0.012, 0);
+    g.rho = rho;
+    Surface s;
+    ASSERT_TRUE(s.build(rect(-0.2, -0.2, 0.2, 0.2), {g}));
+    groove::PlacedProfile pl{&kProfile, &kLayers, -0.012, false};
+    pl.rho = rho;
+    const groove::Section sec = groove::merge({pl}, 2.0);
+    ASSERT_EQ(sec.tilt.size(), sec.facets());
+    int matched = 0;
+    for (const Piece& pc : s.pieces()) {
+      if (pc.wall || pc.groove < 0) continue;
+      // The section's facet with this piece's slope across the path, at the piece's centre b.
+      const double yc = 0.5 * (pc.lo.y + pc.hi.y);
+      for (size_t k = 0; k < sec.facets(); ++k) {
+        const Vec2d n = sec.normal(k);
+        if (!(sec.pts[k].x <= yc && yc <= sec.pts[k + 1].x) || std::fabs(n.y) < 1e-9) continue;
+        if (std::fabs(-n.x / n.y - pc.plane.g.y) > 1e-9) continue;
+        EXPECT_NEAR(pc.plane.g.x, -sec.tilt[k] / n.y, 1e-9) << "rho " << rho << " facet " << k;
+        EXPECT_NE(sec.tilt[k], 0.0);
+        ++matched;
+      }
+    }
+    EXPECT_GE(matched, 4) << rho;  // the groove's two walls and the two pile-ups' outer flanks at least
+  }
+}
+
 }  // namespace
 }  // namespace dg::groove::area

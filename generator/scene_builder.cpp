@@ -405,7 +405,8 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
       }
       // A region that is a small share of a large part can miss all of those draws (the crossing
       // scratches' 3.2 x 0.8 mm bands on a 100 mm door: 2.6 expected hits in 10,000): then draw from
-      // the triangles under the region. (Only then, so that placements that were found stay the same.)
+      // the surface under the region, each triangle clipped to it, which finds a region of any size
+      // in one draw. (Only then, so that placements that were found stay the same.)
       if (!placed) {
         Box2 box;
         box.lo = {float(uvb.lo.x + u0 * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + v0 * (uvb.hi.y - uvb.lo.y))};

@@ -44,10 +44,11 @@ class PartGeometry {
   // A point drawn uniformly by area on the surface, returned as its UV (mm); u0 picks the
   // triangle, (u1, u2) the point in it.
   Vec2f sampleSurfaceUv(double u0, double u1, double u2) const;
-  // A point drawn uniformly by area on the surface whose UV lies in `box` (mm), by rejection over
-  // the triangles whose UV bounds meet the box (so a small region of a large part is found in a
-  // few draws); false when there are none or `tries` draws all fell outside. Deterministic in rng.
-  bool sampleSurfaceUvIn(const Box2& box, Rng& rng, Vec2f& out, int tries = 10000) const;
+  // A point drawn uniformly by area on the surface whose UV lies in `box` (mm): each triangle's UV
+  // triangle is clipped to the box and weighted by the surface area it keeps, so a region of any
+  // size is found in one draw wherever the chart covers it; false where it covers none of it.
+  // Deterministic in rng.
+  bool sampleSurfaceUvIn(const Box2& box, Rng& rng, Vec2f& out) const;
   // Ambient occlusion per vertex (0 open .. 1 enclosed), for defects that gather in cavities:
   // the fraction of cosine-distributed rays from the vertex that hit the part within max_distance.
   // Computed once per dataset, only when asked for; deterministic (counter-based rays).

@@ -1,0 +1,78 @@
+// PartGeometry's surface sampling within a UV region (render/scene.h): the placement of defects
+// whose region is a small part of a large chart.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/rng.h"
+#include "render/mesh.h"
+#include "render/scene.h"
+
+namespace dg {
+namespace {
+
+// A 1000 mm square chart in two triangles that do not share vertices: the lower-right one
+// (v < u) flat and isometric, the upper-left one (v > u) with its 3-D positions `stretch` times
+// larger, so it stands for stretch^2 times the surface per unit of UV area.
+TriangleMesh twoTriangles(float stretch) {
+  TriangleMesh m;
+  m.source = "test";
+  m.positions = {{0, 0, 0}, {1000, 0, 0}, {1000, 1000, 0},
+                 {0, 0, 0}, {1000 * stretch, 1000 * stretch, 0}, {0, 1000 * stretch, 0}};
+  m.uvs = {{0, 0}, {1000, 0}, {1000, 1000}, {0, 0}, {1000, 1000}, {0, 1000}};
+  m.indices = {0, 1, 2, 3, 4, 5};
+  return m;
+}
+
+TEST(PartGeometry, ASurfacePointInATinyRegionIsFoundInOneDraw) {
+  PartGeometry g(twoTriangles(1));
+  // 0.1 mm square: 1e-8 of the chart; a draw over the two triangles would hit it once in 10^8.
+  Box2 box;
+  box.lo = {500.35f, 200.05f};
+  box.hi = {500.45f, 200.15f};
+  Rng rng(7);
+  for (int i = 0; i < 100; ++i) {
+    Vec2f uv;
+    ASSERT_TRUE(g.sampleSurfaceUvIn(box, rng, uv));
+    EXPECT_TRUE(box.contains(uv)) << uv.x << " " << uv.y;
+  }
+  // Outside the chart there is nothing to find.
+  Box2 off;
+  off.lo = {1200, 1200};
+  off.hi = {1300, 1300};
+  Vec2f uv;
+  EXPECT_FALSE(g.sampleSurfaceUvIn(off, rng, uv));
+}
+
+// Uniform by surface area: in a box split evenly by the diagonal, the stretched triangle's half
+// (4 times the surface) gets 4/5 of the points; within each half the points are uniform.
+TEST(PartGeometry, RegionSamplesAreUniformBySurfaceArea) {
+  PartGeometry g(twoTriangles(2));
+  Box2 box;
+  box.lo = {400, 400};
+  box.hi = {600, 600};
+  Rng rng(11);
+  const int n = 20000;
+  int upper = 0, upper_left = 0;
+  double mean_lower_x = 0;
+  for (int i = 0; i < n; ++i) {
+    Vec2f uv;
+    ASSERT_TRUE(g.sampleSurfaceUvIn(box, rng, uv));
+    ASSERT_TRUE(box.contains(uv));
+    if (uv.y > uv.x) {
+      ++upper;
+      upper_left += uv.x < 500;
+    } else {
+      mean_lower_x += uv.x;
+    }
+  }
+  const double share = double(upper) / n;  // 0.8, sigma 0.0028
+  EXPECT_NEAR(share, 0.8, 0.012);
+  // The upper half {y > x} of the box: x < 500 holds 3/4 of its area.
+  EXPECT_NEAR(double(upper_left) / upper, 0.75, 0.015);
+  // The lower half's mean x: (2/3) 600 + (1/3) 400 = 533.3 for a uniform triangle.
+  EXPECT_NEAR(mean_lower_x / (n - upper), 533.33, 2.5);
+}
+
+}  // namespace
+}  // namespace dg

@@ -24,41 +24,41 @@ TriangleMesh twoTriangles(float stretch) {
   return m;
 }
 
+Box2 box(float u0, float v0, float u1, float v1) {
+  Box2 b;
+  b.lo = {u0, v0};
+  b.hi = {u1, v1};
+  return b;
+}
+
 TEST(PartGeometry, ASurfacePointInATinyRegionIsFoundInOneDraw) {
   PartGeometry g(twoTriangles(1));
   // 0.1 mm square: 1e-8 of the chart; a draw over the two triangles would hit it once in 10^8.
-  Box2 box;
-  box.lo = {500.35f, 200.05f};
-  box.hi = {500.45f, 200.15f};
+  const Box2 tiny = box(500.35f, 200.05f, 500.45f, 200.15f);
   Rng rng(7);
   for (int i = 0; i < 100; ++i) {
     Vec2f uv;
-    ASSERT_TRUE(g.sampleSurfaceUvIn(box, rng, uv));
-    EXPECT_TRUE(box.contains(uv)) << uv.x << " " << uv.y;
+    ASSERT_TRUE(g.sampleSurfaceUvIn(tiny, rng, uv));
+    EXPECT_TRUE(tiny.contains(uv)) << uv.x << " " << uv.y;
   }
   // Outside the chart there is nothing to find.
-  Box2 off;
-  off.lo = {1200, 1200};
-  off.hi = {1300, 1300};
   Vec2f uv;
-  EXPECT_FALSE(g.sampleSurfaceUvIn(off, rng, uv));
+  EXPECT_FALSE(g.sampleSurfaceUvIn(box(1200, 1200, 1300, 1300), rng, uv));
 }
 
 // Uniform by surface area: in a box split evenly by the diagonal, the stretched triangle's half
 // (4 times the surface) gets 4/5 of the points; within each half the points are uniform.
 TEST(PartGeometry, RegionSamplesAreUniformBySurfaceArea) {
   PartGeometry g(twoTriangles(2));
-  Box2 box;
-  box.lo = {400, 400};
-  box.hi = {600, 600};
+  const Box2 square = box(400, 400, 600, 600);
   Rng rng(11);
   const int n = 20000;
   int upper = 0, upper_left = 0;
   double mean_lower_x = 0;
   for (int i = 0; i < n; ++i) {
     Vec2f uv;
-    ASSERT_TRUE(g.sampleSurfaceUvIn(box, rng, uv));
-    ASSERT_TRUE(box.contains(uv));
+    ASSERT_TRUE(g.sampleSurfaceUvIn(square, rng, uv));
+    ASSERT_TRUE(square.contains(uv));
     if (uv.y > uv.x) {
       ++upper;
       upper_left += uv.x < 500;

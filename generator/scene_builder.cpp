@@ -384,6 +384,10 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
       json local = json::object();
       const Value& reg = d["region"];
       double u0 = reg.items[0].num(), v0 = reg.items[1].num(), u1 = reg.items[2].num(), v1 = reg.items[3].num();
+      // The region in the chart's mm.
+      Box2 rbox;
+      rbox.lo = {float(uvb.lo.x + u0 * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + v0 * (uvb.hi.y - uvb.lo.y))};
+      rbox.hi = {float(uvb.lo.x + u1 * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + v1 * (uvb.hi.y - uvb.lo.y))};
       // Centres are drawn uniformly by area on the part's surface, kept if they fall in the
       // region (fractions of the UV extent), so a defect never lands off the part.
       Vec2f center;
@@ -407,12 +411,7 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
       // scratches' 3.2 x 0.8 mm bands on a 100 mm door: 2.6 expected hits in 10,000): then draw from
       // the surface under the region, each triangle clipped to it, which finds a region of any size
       // in one draw. (Only then, so that placements that were found stay the same.)
-      if (!placed) {
-        Box2 box;
-        box.lo = {float(uvb.lo.x + u0 * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + v0 * (uvb.hi.y - uvb.lo.y))};
-        box.hi = {float(uvb.lo.x + u1 * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + v1 * (uvb.hi.y - uvb.lo.y))};
-        placed = ds.part->sampleSurfaceUvIn(box, rng, center);
-      }
+      if (!placed) placed = ds.part->sampleSurfaceUvIn(rbox, rng, center);
       if (!placed)
         throw InputError(c.file, reg.line, reg.column,
                          "'" + reg.path + "': no part surface found in this region of the UV chart");
@@ -442,9 +441,6 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
         // Scratches: paths in the UV chart (mm), cross-sections from the process (Bosch 2007 §3.2)
         // or an explicit profile; each path is an instance of class scratch.
         std::string pattern = d["pattern"].str();
-        Box2 rbox;
-        rbox.lo = {float(uvb.lo.x + u0 * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + v0 * (uvb.hi.y - uvb.lo.y))};
-        rbox.hi = {float(uvb.lo.x + u1 * (uvb.hi.x - uvb.lo.x)), float(uvb.lo.y + v1 * (uvb.hi.y - uvb.lo.y))};
         std::vector<ScratchPath> paths;
         try {
           if (pattern == "swirl") {

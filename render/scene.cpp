@@ -2,6 +2,7 @@
 
 #include "core/parallel.h"
 #include "core/rng.h"
+#include "render/groove_area.h"
 
 #include <algorithm>
 #include <cmath>
@@ -117,35 +118,32 @@ Vec2f PartGeometry::sampleSurfaceUv(double u0, double u1, double u2) const {
   return uvInTriangle(t, u1, u2);
 }
 
+namespace {
+// Uniform barycentrics from (u1, u2) in [0, 1)^2 by the square-root warp (Osada et al. 2002,
+// eq. 1): the point b0 A + b1 B + b2 C is uniform by area in the triangle ABC.
+void uniformBarycentrics(double u1, double u2, double& b0, double& b1, double& b2) {
+  const double s = std::sqrt(u1);
+  b1 = 1 - s;
+  b2 = u2 * s;
+  b0 = 1 - b1 - b2;
+}
+}  // namespace
+
 Vec2f PartGeometry::uvInTriangle(size_t t, double u1, double u2) const {
-  // Uniform barycentrics by the square-root warp (Osada et al. 2002, eq. 1).
-  double s = std::sqrt(u1), b1 = 1 - s, b2 = u2 * s, b0 = 1 - b1 - b2;
+  double b0, b1, b2;
+  uniformBarycentrics(u1, u2, b0, b1, b2);
   const uint32_t* f = &mesh_.indices[3 * t];
   return mesh_.uvs[f[0]] * float(b0) + mesh_.uvs[f[1]] * float(b1) + mesh_.uvs[f[2]] * float(b2);
 }
 
 bool PartGeometry::sampleSurfaceUvIn(const Box2& box, Rng& rng, Vec2f& out) const {
+  namespace ga = groove::area;
   if (mesh_.uvs.empty() || !(box.hi.x >= box.lo.x && box.hi.y >= box.lo.y)) return false;
   // Every triangle's UV triangle clipped to the box (a convex polygon, in double), weighted by the
   // surface area it stands for: the triangle's 3-D area times the share of its UV area kept.
-  struct Piece {
-    uint32_t tri;
-    std::vector<Vec2d> poly;
-  };
-  std::vector<Piece> pieces;
+  std::vector<ga::Poly> pieces;
   std::vector<double> cdf;
   double total = 0;
-  const double x0 = box.lo.x, x1 = box.hi.x, y0 = box.lo.y, y1 = box.hi.y;
-  auto area2 = [](const std::vector<Vec2d>& p) {
-    double a = 0;
-    for (size_t i = 0; i < p.size(); ++i) {
-      const Vec2d& q = p[i];
-      const Vec2d& r = p[(i + 1) % p.size()];
-      a += q.x * r.y - q.y * r.x;
-    }
-    return a;
-  };
-  std::vector<Vec2d> poly, next;
   for (size_t t = 0; 3 * t + 2 < mesh_.indices.size(); ++t) {
     const uint32_t* f = &mesh_.indices[3 * t];
     const Vec2f a = mesh_.uvs[f[0]], b = mesh_.uvs[f[1]], c = mesh_.uvs[f[2]];
@@ -154,46 +152,38 @@ bool PartGeometry::sampleSurfaceUvIn(const Box2& box, Rng& rng, Vec2f& out) cons
     tb.hi = {std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y})};
     if (!box.overlaps(tb)) continue;
     const double area3 = area_cdf_[t] - (t > 0 ? area_cdf_[t - 1] : 0.0);
-    poly = {Vec2d(a.x, a.y), Vec2d(b.x, b.y), Vec2d(c.x, c.y)};
-    const double full = std::fabs(area2(poly));
+    ga::Poly poly;
+    for (const Vec2f& q : {a, b, c}) poly.push(Vec2d(q.x, q.y));
+    const double full = std::fabs(poly.area());
     if (!(area3 > 0) || !(full > 0)) continue;
-    // Sutherland-Hodgman against the box's four sides: keep where side(q) >= 0.
-    for (int side = 0; side < 4 && !poly.empty(); ++side) {
-      auto value = [&](const Vec2d& q) {
-        return side == 0 ? q.x - x0 : side == 1 ? x1 - q.x : side == 2 ? q.y - y0 : y1 - q.y;
-      };
-      next.clear();
-      for (size_t i = 0; i < poly.size(); ++i) {
-        const Vec2d& p = poly[i];
-        const Vec2d& q = poly[(i + 1) % poly.size()];
-        const double vp = value(p), vq = value(q);
-        if (vp >= 0) next.push_back(p);
-        if ((vp >= 0) != (vq >= 0)) next.push_back(p + (q - p) * (vp / (vp - vq)));
-      }
-      poly.swap(next);
-    }
-    if (poly.size() < 3) continue;
-    const double kept = std::fabs(area2(poly));
-    if (!(kept > 0)) continue;
+    // The box's four sides as half-planes a.p + c <= 0.
+    poly = ga::clip(poly, {-1, 0}, box.lo.x);
+    poly = ga::clip(poly, {1, 0}, -box.hi.x);
+    poly = ga::clip(poly, {0, -1}, box.lo.y);
+    poly = ga::clip(poly, {0, 1}, -box.hi.y);
+    const double kept = std::fabs(poly.area());
+    if (poly.empty() || !(kept > 0)) continue;
     total += area3 * std::min(1.0, kept / full);
-    pieces.push_back({uint32_t(t), poly});
+    pieces.push_back(poly);
     cdf.push_back(total);
   }
   if (pieces.empty() || !(total > 0)) return false;
   // A piece by its surface area, a triangle of its fan by UV area (the piece's chart is affine, so
   // UV area is surface area up to one factor), a point in it by the square-root warp.
   size_t k = size_t(std::upper_bound(cdf.begin(), cdf.end(), rng.uniformD() * total) - cdf.begin());
-  const std::vector<Vec2d>& p = pieces[std::min(k, pieces.size() - 1)].poly;
+  const ga::Poly& p = pieces[std::min(k, pieces.size() - 1)];
   std::vector<double> fan;
   double fan_total = 0;
-  for (size_t i = 1; i + 1 < p.size(); ++i) {
-    fan_total += std::fabs((p[i].x - p[0].x) * (p[i + 1].y - p[0].y) - (p[i].y - p[0].y) * (p[i + 1].x - p[0].x));
+  for (size_t i = 1; i + 1 < size_t(p.n); ++i) {
+    fan_total += std::fabs(cross(p.v[i] - p.v[0], p.v[i + 1] - p.v[0]));
     fan.push_back(fan_total);
   }
   size_t i = size_t(std::upper_bound(fan.begin(), fan.end(), rng.uniformD() * fan_total) - fan.begin());
   i = std::min(i, fan.size() - 1) + 1;
-  const double s = std::sqrt(rng.uniformD()), b1 = 1 - s, b2 = rng.uniformD() * s, b0 = 1 - b1 - b2;
-  const Vec2d q = p[0] * b0 + p[i] * b1 + p[i + 1] * b2;
+  const double u1 = rng.uniformD(), u2 = rng.uniformD();
+  double b0, b1, b2;
+  uniformBarycentrics(u1, u2, b0, b1, b2);
+  const Vec2d q = p.v[0] * b0 + p.v[i] * b1 + p.v[i + 1] * b2;
   // Rounding may put it a float step outside.
   out = Vec2f(std::clamp(float(q.x), box.lo.x, box.hi.x), std::clamp(float(q.y), box.lo.y, box.hi.y));
   return true;

@@ -735,8 +735,27 @@ class Tracer {
     // only when the pieces would pass groove::area::Surface's caps.
     bool area = false;
     groove::area::Surface surface;
+    bool surface_built = false;  // buildArea ran on `surface` (its buffers came from spareSurface)
     groove::area::Poly fp2;
   };
+
+  // The polygons' buffers (pieces, walls, the shadows cached per light) are kept from one
+  // footprint to the next: a GrooveSet lives for one camera hit, and freeing its Surface returned
+  // megabytes to the system that the next footprint took back page by page (on the scratched door,
+  // a third of the groove renderer's time was the kernel clearing those pages). One Surface per
+  // thread is enough: a camera hit builds at most one.
+  static groove::area::Surface& spareSurface() {
+    thread_local groove::area::Surface spare;
+    return spare;
+  }
+  static void recycle(std::vector<GrooveSet>& sets) {
+    for (GrooveSet& s : sets)
+      if (s.surface_built) {
+        std::swap(s.surface, spareSurface());
+        s.surface_built = false;
+      }
+    sets.clear();
+  }
 
   // Candidate scratches near a hit: closest points within reach of the footprint.
   struct NearGroove {
@@ -815,7 +834,7 @@ class Tracer {
   // enlarged by the projected heights toward the viewer and the lights) and merges the parallel
   // ones into one section. Returns false when no groove reaches the footprint.
   bool gatherGrooves(const SurfacePoint& sp, const Hit& h, Vec3f wo_w, std::vector<GrooveSet>& sets) const {
-    sets.clear();
+    recycle(sets);
     if (!outerSide(h, wo_w)) return false;
     const float view_reach = (max_height_ + max_depth_) * viewTan(sp, wo_w);
     float enlarge = std::max(view_reach, (max_height_ + max_depth_) * tan_light_max_);
@@ -852,7 +871,7 @@ class Tracer {
     if (rep.size() == 1) {
       sets.emplace_back();
       if (!buildSet(sp, near, ref, enlarge, sets.back())) {
-        sets.clear();
+        recycle(sets);
         return false;
       }
       // An end inside the footprint: polygons, unless past their caps (then the end blend).
@@ -872,7 +891,7 @@ class Tracer {
         ++counts_.polygons;
         return true;
       }
-      sets.clear();
+      recycle(sets);
     }
     ++counts_.fallbacks;
     // Crossings: the share of the footprint where each direction's grooves are the lowest
@@ -990,6 +1009,10 @@ class Tracer {
     // crossing scratches under the bar light) no footprint falls back any more, and the pixels
     // >= 10 went from 2.27% to 0.02% (docs/grooves.md, "Cost bound and fallback").
     const double fp_r = std::max(std::hypot(lo.x, lo.y), std::hypot(hi.x, hi.y));
+    if (!gs.surface_built) {
+      std::swap(gs.surface, spareSurface());
+      gs.surface_built = true;
+    }
     double last = -1;
     for (double f : {1.0, 0.5, 0.25}) {
       const double R = std::max(double(view_reach), f * double(enlarge)) + 1e-3;

@@ -345,6 +345,33 @@ class Commands(unittest.TestCase):
         self.assertIn("# mm, default", p.stdout)
         self.assertIn("exr: false", p.stdout)
 
+    def test_the_benchs_door_is_the_shipped_example(self):
+        # scripts/bench-grooves --door times the example with its draws fixed
+        # (tests/accuracy/groove_scenes.DOOR): the same part, material and scratch processes.
+        sys.path.insert(0, os.path.join(ARGS.source, "tests", "accuracy"))
+        import groove_scenes
+        d = work("bench_door")
+        path = os.path.join(d, "door.yaml")
+        with open(path, "w") as f:
+            f.write(groove_scenes.door_config("geometry", 64))
+        ours = run("validate", path).stdout
+        shipped = run("validate", os.path.join(ARGS.source, "configs", "scratched_door.yaml")).stdout
+
+        def section(text, key):
+            lines = text.splitlines()
+            start = lines.index(key + ":")
+            end = next((i for i in range(start + 1, len(lines)) if not lines[i].startswith(" ")), len(lines))
+            return lines[start:end]
+
+        for key in ("part", "material"):
+            self.assertEqual(section(ours, key), section(shipped, key), key)
+        defects_ours, defects_shipped = section(ours, "defects"), section(shipped, "defects")
+        # Drawn values (count, force_kg) differ by design; every other field of both groups agrees.
+        drawn = ("count:", "force_kg:", "region:", "-")
+        keep = lambda ls: [l.split("#")[0].rstrip() for l in ls if not l.strip().startswith(drawn)]
+        self.assertEqual(keep(defects_ours), keep(defects_shipped))
+        self.assertIn("scratches: geometry", ours)
+
     def test_version(self):
         p = run("--version")
         for lib in ("defectgen", "embree", "opencv", "openimageio", "openexr", "cgal", "tbb"):

@@ -151,7 +151,8 @@ class GrooveAccuracy(unittest.TestCase):
         the blend of directions (docs/grooves.md) where a quarter of the shadow reach still holds
         more than eight. Not one of the issue's target scenes; the bounds are regression bounds
         (measured against geometry at 256 spp: 2026-11-25 1.53% of pixels >= 10, mean 0.91;
-        2026-11-26, with the smaller reaches, 0.71% and 0.66)."""
+        2026-11-26, with the smaller reaches, 0.71% and 0.66; with the cap of pieces at 1,200
+        instead of 600, 0.35% and 0.48, 709 footprints on the blend instead of 858)."""
         ref = render("star_bar_ref", "star", "bar", "geometry", 256, noise_seed=1)
         grv = render("star_bar_groove", "star", "bar", "groove", 4)
         used = footprints("star_bar_groove")
@@ -160,8 +161,8 @@ class GrooveAccuracy(unittest.TestCase):
               "footprints %s" % (st["mean"], st["pct_ge_10"], used), flush=True)
         self.assertGreater(used["fallbacks"], 0)
         self.assertGreater(used["polygons"], 0)
-        self.assertLess(st["pct_ge_10"], 1.0)
-        self.assertLess(st["mean"], 0.85)
+        self.assertLess(st["pct_ge_10"], 0.6)
+        self.assertLess(st["mean"], 0.6)
 
 
 def _make(layout, light):

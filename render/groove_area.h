@@ -118,8 +118,8 @@ class Surface {
   static constexpr size_t kMaxFragments = 48;
   // 1,200 since 2026-11-26 (600 before): on the fuzzer's densest clusters (docs/grooves.md,
   // "Fuzzing") it took the pixels >= 10 from 2.95% to 1.35% (c1_2) and 0.56% to 0.17% (c3_13), for
-  // 20-65% more time there; no footprint of the accuracy scenes' other layouts or of the examples
-  // reaches 600.
+  // 20-65% more time there. Of the accuracy scenes only `star` and `dense` reach 600; no footprint
+  // of the bench's scenes or of the example configs does.
   static constexpr size_t kMaxPieces = 1200;
 
   // Cuts `region` (convex, counter-clockwise) into pieces. False when there are more than 8

@@ -366,7 +366,8 @@ class Commands(unittest.TestCase):
         for key in ("part", "material"):
             self.assertEqual(section(ours, key), section(shipped, key), key)
         defects_ours, defects_shipped = section(ours, "defects"), section(shipped, "defects")
-        # Drawn values (count, force_kg) differ by design; every other field of both groups agrees.
+        # The drawn values (count, force_kg) and the regions differ by design; every other field of
+        # both groups agrees.
         drawn = ("count:", "force_kg:", "region:", "-")
         keep = lambda ls: [l.split("#")[0].rstrip() for l in ls if not l.strip().startswith(drawn)]
         self.assertEqual(keep(defects_ours), keep(defects_shipped))

@@ -119,7 +119,12 @@ Dataset prepareDataset(Config config) {
   return ds;
 }
 
-Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
+namespace {
+
+// makeSample, or with check_only its check: the same draws and errors, but a mesh of its own (for
+// displaced dents or the scratch reference) is made without its BVH, the scratch reference is only
+// counted, and the defect index is left out.
+Sample buildSample(const Dataset& ds, uint64_t seed, uint64_t index, bool check_only) {
   const Config& c = ds.config;
   const Value& root = c.root;
   Sample s;
@@ -659,8 +664,11 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
     DisplacementOptions opt;
     opt.max_edge_mm = displace_edge;
     DisplacementStats st;
+    size_t triangles = 0;
     try {
-      s.scene.part = std::make_shared<PartGeometry>(displaceMesh(ds.part->mesh(), displaced, opt, &st), ds.part->shell());
+      TriangleMesh moved = displaceMesh(ds.part->mesh(), displaced, opt, &st);
+      triangles = moved.triangleCount();
+      if (!check_only) s.scene.part = std::make_shared<PartGeometry>(std::move(moved), ds.part->shell());
     } catch (const std::runtime_error& e) {
       throw InputError(c.file, groups.line, groups.column,
                        "'defects': cannot displace the part for sample " + std::to_string(index) + ": " + e.what() +
@@ -670,7 +678,7 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
                             {"max_edge_mm", displace_edge},
                             {"triangles_split", st.triangles_split},
                             {"vertices_moved", st.vertices_moved},
-                            {"triangles", s.scene.part->mesh().triangleCount()}};
+                            {"triangles", triangles}};
   }
   // Scratches: the renderer's mode, and for the explicit-geometry reference a re-meshed part with
   // the cross-sections cut in (shared by nothing else: per sample, like displaced dents).
@@ -689,7 +697,10 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
                        "'defects': render.scratches: geometry cannot be combined with displaced dents");
     try {
       ScratchGeometryStats st;
-      s.scene.part = std::make_shared<PartGeometry>(scratchedMesh(ds.part->mesh(), scratches, {}, &st), ds.part->shell());
+      ScratchGeometryOptions opt;
+      opt.count_only = check_only;
+      TriangleMesh cut = scratchedMesh(ds.part->mesh(), scratches, opt, &st);
+      if (!check_only) s.scene.part = std::make_shared<PartGeometry>(std::move(cut), ds.part->shell());
       meta["scratches"]["triangles"] = st.triangles;
       meta["scratches"]["cell_mm"] = st.cell_mm;
       meta["scratches"]["part_triangles_cut"] = st.part_triangles_cut;
@@ -705,9 +716,15 @@ Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) {
   meta["defects"] = dj;
   meta["sampled"] = rec;
   s.scene.defects = s.defects.get();
-  s.scene.defect_index = DefectIndex(*s.defects, uvb);
+  if (!check_only) s.scene.defect_index = DefectIndex(*s.defects, uvb);
   s.meta = std::move(meta);
   return s;
 }
+
+}  // namespace
+
+Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) { return buildSample(ds, seed, index, false); }
+
+void checkSample(const Dataset& ds, uint64_t seed, uint64_t index) { buildSample(ds, seed, index, true); }
 
 }  // namespace dg

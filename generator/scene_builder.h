@@ -34,4 +34,8 @@ struct Sample {
 
 Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index);
 
+// Throws what makeSample(ds, seed, index) would throw, at less cost: a mesh of the sample's own is
+// made but gets no BVH, and the explicit scratch geometry is only cut and counted, not stored.
+void checkSample(const Dataset& ds, uint64_t seed, uint64_t index);
+
 }  // namespace dg

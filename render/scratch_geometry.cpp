@@ -256,16 +256,28 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
   // under a grazing light the apex is cut low and the shadow behind it comes out short (measured:
   // 4% too much light in a lit wall's pixels at cell = width / 32 under a 12 degree bar light,
   // converging only as the cell shrinks).
+  // Each block's triangles, three vertices each; with count_only just how many vertices.
   struct Soup {
+    bool count_only = false;
+    size_t vertices = 0;
     std::vector<Vec3f> positions, normals;
     std::vector<Vec2f> uvs;
     std::vector<float> heights;
+    void add(Vec3f p, Vec2f uv, Vec3f n, float h) {
+      ++vertices;
+      if (count_only) return;
+      positions.push_back(p);
+      uvs.push_back(uv);
+      normals.push_back(n);
+      heights.push_back(h);
+    }
   };
   const size_t block = 1024;
   const size_t nblocks = (leaves.size() + block - 1) / block;
   std::vector<Soup> soups(nblocks);
   parallelFor(nblocks, [&](size_t blk) {
     Soup& out = soups[blk];
+    out.count_only = opt.count_only;
     std::vector<const Scratch*> near;
     // The ends of the scratches in `near`: where the scale is still > 0 at an end, the height drops
     // to 0 across the line through it perpendicular to the path (PathPoint::beyond > 0 past it).
@@ -483,10 +495,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
                 }
                 const Vec3f nf(g / length(g));
                 for (auto [pp, uu, hh] : {std::tuple{p0, u0, h0}, std::tuple{p1, u1, h1}, std::tuple{p2, u2, h2}}) {
-                  out.positions.push_back(Vec3f(pp));
-                  out.uvs.push_back(uu);
-                  out.normals.push_back(nf);
-                  out.heights.push_back(float(hh));
+                  out.add(Vec3f(pp), uu, nf, float(hh));
                 }
               };
               wall(A0, B0, B1, T[k], T[k1], T[k1], hv[k], hv[k1], tb);
@@ -508,22 +517,25 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
             const double ee = std::max(dot(e1, e1), dot(e2, e2));
             if (!(length(cross(e1, e2)) > 1e-10 * ee)) continue;  // degenerate sliver
             for (size_t v : id) {
-              out.positions.push_back(Vec3f(P[v]));
-              out.uvs.push_back(T[v]);
-              out.normals.push_back(Vec3f(normalize(turn(pt.ng, N[v], nf))));
-              out.heights.push_back(float(hv[v]));
+              out.add(Vec3f(P[v]), T[v], Vec3f(normalize(turn(pt.ng, N[v], nf))), float(hv[v]));
             }
           }
         }
       }
     }
   });
-  TriangleMesh out;
-  out.source = part.source + "+scratches";
   size_t nv = 3 * kept.size();
-  for (const Soup& sp : soups) nv += sp.positions.size();
+  for (const Soup& sp : soups) nv += sp.vertices;
   if (nv / 3 > opt.max_triangles)
     throw std::runtime_error("the scratch geometry would exceed " + std::to_string(opt.max_triangles) + " triangles");
+  if (stats) {
+    stats->triangles = nv / 3;
+    stats->part_triangles_cut = cut.size();
+    stats->cell_mm = std::max(du, dv);
+  }
+  TriangleMesh out;
+  if (opt.count_only) return out;
+  out.source = part.source + "+scratches";
   out.positions.reserve(nv);
   out.uvs.reserve(nv);
   out.normals.reserve(nv);
@@ -548,11 +560,6 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
   out.indices.resize(nv);
   for (size_t k = 0; k < nv; ++k) out.indices[k] = uint32_t(k);
   out.computeMmPerUv();
-  if (stats) {
-    stats->triangles = out.triangleCount();
-    stats->part_triangles_cut = cut.size();
-    stats->cell_mm = std::max(du, dv);
-  }
   return out;
 }
 

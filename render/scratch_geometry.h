@@ -29,6 +29,9 @@ struct ScratchGeometryOptions {
   // along the path is followed (the cross-sections themselves are exact at any size).
   double cell_mm = 0;
   size_t max_triangles = 40'000'000;  // refuse rather than exhaust memory
+  // Only cut and count: the mesh returned is empty, stats get the figures the full mesh would
+  // have, and the same errors are thrown (generate's check of every sample before it writes).
+  bool count_only = false;
 };
 struct ScratchGeometryStats {
   size_t triangles = 0;

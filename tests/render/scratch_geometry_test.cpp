@@ -124,6 +124,40 @@ TEST(ScratchGeometry, CellSizeDoesNotChangeTheSurface) {
   EXPECT_NEAR(t2, L * arc, 2e-3 * L * arc);
 }
 
+// generate checks every sample before it writes (checkSample): counting alone must give the mesh's
+// figures and refuse exactly where building it would. Two crossing scratches with abrupt ends, so
+// that walls (two triangles per jump edge) are counted too.
+TEST(ScratchGeometry, CountingAloneGivesTheMeshsFiguresAndItsErrors) {
+  PlateParams pp;
+  pp.width_mm = 20;
+  pp.height_mm = 20;
+  TriangleMesh plate = makePlate(pp, 5);
+  Scratch a = straightScratch();
+  Profile p = Profile::fromPolyline({{-0.04, 0.0}, {-0.03, 0.005}, {0.0, -0.02}, {0.03, 0.005}, {0.04, 0.0}});
+  Scratch b = Scratch::fromProfile(ScratchPath::polyline({{8.0, 7.0}, {12.0, 13.0}}), p);
+  std::vector<const Scratch*> list{&a, &b};
+  ScratchGeometryStats full, counted;
+  TriangleMesh m = scratchedMesh(plate, list, {}, &full);
+  ScratchGeometryOptions o;
+  o.count_only = true;
+  TriangleMesh none = scratchedMesh(plate, list, o, &counted);
+  EXPECT_EQ(none.triangleCount(), 0u);
+  EXPECT_TRUE(none.positions.empty());
+  ASSERT_GT(full.triangles, 1000u);
+  EXPECT_EQ(full.triangles, m.triangleCount());
+  EXPECT_EQ(counted.triangles, full.triangles);
+  EXPECT_EQ(counted.part_triangles_cut, full.part_triangles_cut);
+  EXPECT_EQ(counted.cell_mm, full.cell_mm);
+  for (bool count_only : {false, true}) {
+    ScratchGeometryOptions cap;
+    cap.count_only = count_only;
+    cap.max_triangles = full.triangles;
+    EXPECT_NO_THROW(scratchedMesh(plate, list, cap)) << "count_only " << count_only;
+    cap.max_triangles = full.triangles - 1;
+    EXPECT_THROW(scratchedMesh(plate, list, cap), std::runtime_error) << "count_only " << count_only;
+  }
+}
+
 // On a curved part (a door skin bowed across its height, arc-length UVs): each vertex sits at the
 // part's surface moved along its interpolated normal by the scratch's height; the walls' normals
 // make the profile's slope with that normal and lie across the path; the pieces tile the chart;

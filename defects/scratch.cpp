@@ -791,20 +791,30 @@ void Scratch::shade(const DefectQuery& qy, DefectShading& out) const {
   if (!q.found || q.beyond > 0) return;
   float k = scaleAt(q.s);
   if (!(k > 0)) return;
-  // A uniformly scaled profile keeps its slopes: dh/db at b is the reference slope at b / k.
-  double b = double(q.offset) / k;
+  // h(b, s) = k(s) H(b / k(s)), H the reference profile. Across the path a uniformly scaled
+  // profile keeps its slopes: dh/db = H'(beta) at beta = b / k. Along it, where the scale changes
+  // (the force fading at the ends, force keys, the perturbation), dh/ds = k'(s) (H - beta H'):
+  // the facets tilt along the path as the groove grows shallower, as the groove renderer's facets
+  // do (render/groove.h, rho).
+  const double beta = double(q.offset) / k;
   const auto& p = ref_.pts;
   double slope = 0;
   for (size_t i = 0; i + 1 < p.size(); ++i)
-    if (b >= p[i].x && b < p[i + 1].x) {
+    if (beta >= p[i].x && beta < p[i + 1].x) {
       double db = p[i + 1].x - p[i].x;
       slope = db > 0 ? (p[i + 1].y - p[i].y) / db : 0.0;
       break;
     }
+  // k'(s) by a central difference over 1e-3 mm of the path (the scale table is piecewise linear).
+  const double len = path_.length(), ds = 1e-3;
+  const double s0 = std::max(0.0, double(q.s) - ds), s1 = std::min(len, double(q.s) + ds);
+  const double dk = s1 > s0 ? (double(scaleAt(float(s1))) - scaleAt(float(s0))) / (s1 - s0) : 0.0;
+  double along = dk * (ref_.heightAt(beta) - beta * slope);
   // Vertical facets have no finite slope; cap the tilt at 80 degrees.
   slope = std::max(-5.67, std::min(5.67, slope));
+  along = std::max(-5.67, std::min(5.67, along));
   Vec2f B(-q.tangent.y, q.tangent.x);  // W x T in the UV plane
-  out.height_grad += B * float(slope);
+  out.height_grad += B * float(slope) + q.tangent * float(along);
 }
 
 nlohmann::json Scratch::attributes() const {

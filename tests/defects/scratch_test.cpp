@@ -542,6 +542,36 @@ TEST(ScratchDefect, SlopeThroughTheBumpInterfaceOnlyWhenAsked) {
   EXPECT_NEAR(grad({25, 9.95f}, false).y, -0.4f, 1e-4f);
 }
 
+// Where the force fades, the slope through the bump interface is the gradient of the height field
+// along the path too, not only across it: against central differences of height() on a faded,
+// oblique scratch (both components, on facets' interiors, on either side of the path).
+TEST(ScratchDefect, BumpSlopeIsTheHeightGradientAlsoAlongAFade) {
+  Profile pr = Profile::fromPolyline({{-0.2, 0}, {-0.1, 0.01}, {0, -0.03}, {0.1, 0.01}, {0.2, 0}});
+  ScratchPerturbation pert;
+  pert.fade_length_mm = 4;
+  Scratch sc = Scratch::fromProfile(ScratchPath::polyline({{10, 10}, {34, 20}}), pr, pert);
+  sc.setBumpShading(true);
+  const Vec2f T = Vec2f(24, 10) / 26.0f, B(-T.y, T.x);
+  int tilted = 0;
+  for (double along : {0.7, 1.5, 2.5, 3.3, 12.0, 21.0, 23.2, 24.5}) {
+    for (double b : {-0.15, -0.06, -0.03, 0.04, 0.08, 0.16}) {
+      const Vec2f uv = Vec2f(10, 10) + T * float(along) + B * float(b * sc.scaleAt(float(along)));
+      DefectQuery q;
+      q.uv = uv;
+      DefectShading ds;
+      sc.shade(q, ds);
+      const float e = 1e-3f;  // float UVs near 30 mm: a smaller step is rounding
+      auto diff = [&](Vec2f d) { return (double(sc.height(uv + d * e)) - sc.height(uv - d * e)) / (2.0 * e); };
+      const double g_along = diff(T), g_across = diff(B);
+      SCOPED_TRACE(testing::Message() << "along " << along << " b " << b);
+      EXPECT_NEAR(dot(ds.height_grad, T), g_along, 2e-3 + 0.01 * std::fabs(g_along));
+      EXPECT_NEAR(dot(ds.height_grad, B), g_across, 2e-3 + 0.01 * std::fabs(g_across));
+      tilted += std::fabs(g_along) > 2e-3;
+    }
+  }
+  EXPECT_GE(tilted, 12);  // the fades' points do tilt along the path; the middle's do not
+}
+
 TEST(ScratchDefect, MaskAreaOfArcAndProcessAttributes) {
   ScratchPath arc = arcScratch({50, 50}, 20, 0.3, 0.05);  // radius 20, sweep 1 rad
   LayerStack paint{{{"clear", 0.02}, {"base", 0.015}, {"primer", 0.01}, {"steel", 0}}};

@@ -378,13 +378,23 @@ Field buildSchema() {
   def.variants["scratch"] = {
       integer("count", "", 1, 0, 1000,
               "Number of scratches in the group (pattern swirl: arcs in the swirl set).", true),
-      enumeration("pattern", {"random", "key", "swirl"}, "random",
+      enumeration("pattern", {"random", "key", "swirl", "path"}, "random",
                   "random: independent scratches of `length_mm`, `orientation_deg`, `curvature_per_mm`; "
                   "key: long gently curved scratches across the region (cubic curves); swirl: wash "
-                  "swirls, concentric arcs about one centre."),
+                  "swirls, concentric arcs about one centre; path: the path given by `path_mm` and "
+                  "`curve`, placed at each scratch's centre."),
       num("length_mm", "mm", 20, 0.5, 5000, "Length of a random scratch."),
       optional(num("orientation_deg", "deg", nullptr, -360, 360,
-                   "Direction of a random scratch in the UV chart, from +u toward +v; absent = uniform.")),
+                   "Direction of a random scratch in the UV chart, from +u toward +v; absent = uniform. "
+                   "With pattern path: the turn of `path_mm` about the centre; absent = as given.")),
+      optional(vec("path_mm", -4, "mm", nullptr, -5000, 5000,
+                   "Pattern path only: the path's points [u0, v0, u1, v1, ...] in the UV chart, in mm "
+                   "from the scratch's centre (`center`, or drawn in `region`); see `curve`.",
+                   false)),
+      enumeration("curve", {"polyline", "bezier"}, "polyline",
+                  "How `path_mm` makes the path: polyline = straight segments through the points (at "
+                  "least two distinct); bezier = a chain of cubic Bezier curves, 3k + 1 control points "
+                  "(k >= 1), each curve starting where the last ended."),
       num("curvature_per_mm", "1/mm", 0, 0, 1, "Curvature of a random scratch (its sign is random)."),
       num("force_kg", "kg", 1, 0, 1000, "Normal force on the tool, F_N (Bosch 2007 §3.2)."),
       num("hardness_hv", "kg/mm^2", 20, 0.1, 5000,
@@ -844,6 +854,32 @@ void checkToolTilt(const Parser& p, const Value& d) {
   p.failAt(tilt.line, tilt.column, m.str());
 }
 
+// pattern: path needs path_mm, and path_mm is read by nothing else; its points must make a path.
+void checkScratchPath(const Parser& p, const Value& d) {
+  const Value& pattern = d["pattern"];
+  const bool is_path = pattern.str() == "path";
+  if (!d.has("path_mm")) {
+    if (is_path) p.failAt(pattern.line, pattern.column, "'" + pattern.path + "': pattern path needs 'path_mm'");
+    return;
+  }
+  const Value& pm = d["path_mm"];
+  if (!is_path)
+    p.failAt(pm.line, pm.column,
+             "'" + pm.path + "': only pattern path reads path_mm (the pattern is " + pattern.str() + ")");
+  if (pm.items.size() % 2 != 0)
+    p.failAt(pm.line, pm.column, "'" + pm.path + "': expected pairs [u, v]: an even count of numbers");
+  const size_t n = pm.items.size() / 2;
+  const bool bezier = d["curve"].str() == "bezier";
+  if (bezier && (n < 4 || (n - 1) % 3 != 0))
+    p.failAt(pm.line, pm.column,
+             "'" + pm.path + "': curve bezier expected 3k + 1 control points (4, 7, 10, ...), found " +
+                 std::to_string(n));
+  bool distinct = false;
+  for (size_t i = 1; i < n; ++i)
+    distinct = distinct || pm.items[2 * i].num() != pm.items[0].num() || pm.items[2 * i + 1].num() != pm.items[1].num();
+  if (!distinct) p.failAt(pm.line, pm.column, "'" + pm.path + "': expected at least two distinct points");
+}
+
 // Rules that involve several fields.
 void crossChecks(const Value& root, const Parser& p) {
   const Value& cam = root["camera"];
@@ -875,6 +911,7 @@ void crossChecks(const Value& root, const Parser& p) {
         p.failAt(o.line, o.column, "'" + o.path + "': origin 'scratch' needs a group of type scratch in 'defects'");
     }
     if (d["type"].str() == "scratch" && !d.has("profile_mm")) checkToolTilt(p, d);
+    if (d["type"].str() == "scratch") checkScratchPath(p, d);
     const Value& r = d["region"];
     if (!(r.items[0].num() < r.items[2].num() && r.items[1].num() < r.items[3].num()))
       p.failAt(r.line, r.column, "'" + r.path + "': expected [u0, v0, u1, v1] with u0 < u1 and v0 < v1");

@@ -461,6 +461,17 @@ Sample buildSample(const Dataset& ds, uint64_t seed, uint64_t index, bool check_
           } else if (pattern == "key") {
             KeyScratchOptions ko;
             paths.push_back(randomKeyScratch(rng, rbox, ko));
+          } else if (pattern == "path") {
+            // The given points, turned by orientation_deg (if any) about the centre and moved to it.
+            const Value& pm = d["path_mm"];
+            const double turn = d.has("orientation_deg") ? degToRad(sampleNumber(d["orientation_deg"], rng, local)) : 0.0;
+            const double cs = std::cos(turn), sn = std::sin(turn);
+            std::vector<Vec2d> pts;
+            for (size_t i = 0; i + 1 < pm.items.size(); i += 2) {
+              const double u = pm.items[i].num(), v = pm.items[i + 1].num();
+              pts.push_back({center.x + cs * u - sn * v, center.y + sn * u + cs * v});
+            }
+            paths.push_back(d["curve"].str() == "bezier" ? ScratchPath::bezier(pts) : ScratchPath::polyline(pts));
           } else {
             double len = sampleNumber(d["length_mm"], rng, local);
             double ori = d.has("orientation_deg") ? degToRad(sampleNumber(d["orientation_deg"], rng, local))

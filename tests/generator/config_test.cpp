@@ -134,6 +134,23 @@ TEST(Config, CrossFieldRules) {
             std::string::npos) << e;
   EXPECT_EQ(errorOf(scratch("    tool_apex_deg: 170\n    tool_tilt_deg: 30\n    profile_mm: [-0.1, 0, 0, -0.05, 0.1, 0]\n")),
             "");  // an explicit profile does not use the tool
+  // pattern: path and path_mm go together; the points must make a path of the chosen curve.
+  EXPECT_EQ(errorOf(scratch("    pattern: path\n    path_mm: [0, 0, 10, 0, 10, 5]\n")), "");
+  EXPECT_EQ(errorOf(scratch("    pattern: path\n    curve: bezier\n    path_mm: [0, 0, 1, 1, 2, 1, 3, 0]\n")), "");
+  e = errorOf(scratch("    pattern: path\n"));
+  EXPECT_NE(e.find("test.yaml:10:14: 'defects[0].pattern': pattern path needs 'path_mm'"), std::string::npos) << e;
+  e = errorOf(scratch("    path_mm: [0, 0, 10, 0]\n"));
+  EXPECT_NE(e.find("test.yaml:10:14: 'defects[0].path_mm': only pattern path reads path_mm (the pattern is random)"),
+            std::string::npos) << e;
+  e = errorOf(scratch("    pattern: path\n    path_mm: [0, 0, 10, 0, 10]\n"));
+  EXPECT_NE(e.find("test.yaml:11:14: 'defects[0].path_mm': expected pairs [u, v]"), std::string::npos) << e;
+  e = errorOf(scratch("    pattern: path\n    curve: bezier\n    path_mm: [0, 0, 1, 1, 2, 1, 3, 0, 4, 4]\n"));
+  EXPECT_NE(e.find("test.yaml:12:14: 'defects[0].path_mm': curve bezier expected 3k + 1 control points (4, 7, 10, ...), "
+                   "found 5"), std::string::npos) << e;
+  e = errorOf(scratch("    pattern: path\n    path_mm: [3, 4, 3, 4]\n"));
+  EXPECT_NE(e.find("'defects[0].path_mm': expected at least two distinct points"), std::string::npos) << e;
+  e = errorOf(scratch("    pattern: path\n    curve: spline\n    path_mm: [0, 0, 10, 0]\n"));
+  EXPECT_NE(e.find("'defects[0].curve'"), std::string::npos) << e;
 }
 
 TEST(Config, DistributionsSampleInRangeAndAreRecorded) {

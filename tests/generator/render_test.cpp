@@ -222,6 +222,68 @@ TEST(Render, RustStartsWhereAScratchBaresTheSteel) {
   EXPECT_EQ(red, 0);
 }
 
+// pattern: path places the given polyline or Bezier chain at the centre, turned by orientation_deg:
+// the scratch's path is exactly those points, and its mask follows them in the image (the plate is
+// seen head-on at 2 px per mm, its centre at the image's centre, +v up).
+TEST(Render, AGivenPathIsPlacedTurnedAndMasked) {
+  const int res = 256;
+  auto cfg = [&](const std::string& keys) {
+    return plateConfig("defects:\n  - type: scratch\n    pattern: path\n    center: [0.5, 0.5]\n    force_kg: 3\n"
+                       "    fade_mm: 0\n    perturbation: 0\n" + keys, res, 1);
+  };
+  Sample s;
+  RenderFrame f = renderConfig(cfg("    path_mm: [-20, 0, 20, 0, 20, 30]\n    orientation_deg: 90\n"), false, true, &s);
+  ASSERT_EQ(s.instances.size(), 1u);
+  const auto& sc = static_cast<const Scratch&>(*(*s.defects)[0]);
+  // Turned by 90 degrees about the plate's centre (150, 100): (u, v) -> (-v, u).
+  const std::vector<Vec2d> want{{150, 80}, {150, 120}, {120, 120}};
+  ASSERT_EQ(sc.path().points().size(), want.size());
+  for (size_t i = 0; i < want.size(); ++i) {
+    EXPECT_NEAR(sc.path().points()[i].x, want[i].x, 1e-5) << i;  // the centre and the turn are floats
+    EXPECT_NEAR(sc.path().points()[i].y, want[i].y, 1e-5) << i;
+  }
+  EXPECT_NEAR(sc.path().length(), 70.0, 1e-5);
+  EXPECT_EQ(s.instances[0].attributes["pattern"], "path");
+  // Every labelled pixel lies on the path (within a pixel and a half), and both legs are labelled
+  // over their whole length: a 40 mm leg is 80 pixels tall, a 30 mm one 60 wide.
+  auto distToPath = [&](double px, double py) {
+    double best = 1e30;
+    for (size_t i = 0; i + 1 < want.size(); ++i) {
+      const Vec2d a((want[i].x - 150) * 2 + 127.5, 127.5 - (want[i].y - 100) * 2);
+      const Vec2d b((want[i + 1].x - 150) * 2 + 127.5, 127.5 - (want[i + 1].y - 100) * 2);
+      const Vec2d ab = b - a, ap = Vec2d(px, py) - a;
+      const double t = std::clamp((ap.x * ab.x + ap.y * ab.y) / (ab.x * ab.x + ab.y * ab.y), 0.0, 1.0);
+      best = std::min(best, std::hypot(ap.x - t * ab.x, ap.y - t * ab.y));
+    }
+    return best;
+  };
+  int labelled = 0, off = 0;
+  std::vector<bool> rows(res, false), cols(res, false);
+  for (int y = 0; y < res; ++y)
+    for (int x = 0; x < res; ++x)
+      if (f.coverage(x, y) > 0 && f.dominant(x, y) == 1) {
+        ++labelled;
+        off += distToPath(x, y) > 1.5;
+        if (std::abs(x - 127.5) < 2) rows[y] = true;  // the vertical leg, u = 150
+        if (std::abs(y - 87.5) < 2) cols[x] = true;   // the horizontal leg, v = 120
+      }
+  EXPECT_EQ(off, 0) << "of " << labelled;
+  EXPECT_EQ(std::count(rows.begin() + 90, rows.begin() + 165, true), 75);
+  EXPECT_EQ(std::count(cols.begin() + 70, cols.begin() + 125, true), 55);
+  // A Bezier chain: through its first and last control points, as long as at least its chord and
+  // at most its control polygon.
+  Sample b;
+  renderConfig(cfg("    curve: bezier\n    path_mm: [-30, -10, -10, 20, 10, -20, 30, 10]\n"), false, false, &b);
+  const auto& bz = static_cast<const Scratch&>(*(*b.defects)[0]).path();
+  EXPECT_NEAR(bz.points().front().x, 120, 1e-5);
+  EXPECT_NEAR(bz.points().front().y, 90, 1e-5);
+  EXPECT_NEAR(bz.points().back().x, 180, 1e-5);
+  EXPECT_NEAR(bz.points().back().y, 110, 1e-5);
+  EXPECT_GT(bz.points().size(), 20u);
+  EXPECT_GT(bz.length(), std::hypot(60.0, 20.0));
+  EXPECT_LT(bz.length(), std::hypot(20.0, 30.0) + std::hypot(20.0, 40.0) + std::hypot(20.0, 30.0));
+}
+
 // Groove shading takes groove_light_samples stratified samples per light at every camera hit. Any
 // count must give the same image on average, squares (a q x q grid) or not (strata along one
 // axis): a count whose grid missed strata would leave part of the light out. A Lambert plate

@@ -858,6 +858,10 @@ void checkToolTilt(const Parser& p, const Value& d) {
 void checkScratchPath(const Parser& p, const Value& d) {
   const Value& pattern = d["pattern"];
   const bool is_path = pattern.str() == "path";
+  const Value& curve = d["curve"];
+  if (!is_path && !curve.defaulted)
+    p.failAt(curve.line, curve.column,
+             "'" + curve.path + "': only pattern path reads curve (the pattern is " + pattern.str() + ")");
   if (!d.has("path_mm")) {
     if (is_path) p.failAt(pattern.line, pattern.column, "'" + pattern.path + "': pattern path needs 'path_mm'");
     return;

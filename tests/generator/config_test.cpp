@@ -149,6 +149,9 @@ TEST(Config, CrossFieldRules) {
                    "found 5"), std::string::npos) << e;
   e = errorOf(scratch("    pattern: path\n    path_mm: [3, 4, 3, 4]\n"));
   EXPECT_NE(e.find("'defects[0].path_mm': expected at least two distinct points"), std::string::npos) << e;
+  e = errorOf(scratch("    pattern: key\n    curve: bezier\n"));
+  EXPECT_NE(e.find("test.yaml:11:12: 'defects[0].curve': only pattern path reads curve (the pattern is key)"),
+            std::string::npos) << e;
   e = errorOf(scratch("    pattern: path\n    curve: spline\n    path_mm: [0, 0, 10, 0]\n"));
   EXPECT_NE(e.find("'defects[0].curve'"), std::string::npos) << e;
 }

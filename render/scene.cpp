@@ -24,20 +24,23 @@ RTCDevice embreeDevice() {
 
 namespace {
 
-// Attaches a triangle mesh to the scene as the next geometry.
-void attachTriangles(RTCDevice dev, RTCScene scene, const TriangleMesh& m) {
+// Attaches a triangle mesh to the scene as the next geometry. Embree reads the mesh's own arrays
+// (shared buffers: the mesh lives as long as the scene, PartGeometry owns both and never changes
+// them); copying them cost the scratch reference's 21 million triangles 1.5 GB. Embree loads a
+// vertex 16 bytes at a time, so the vertex array gets one more vertex's room past its end, written
+// once (a zero vertex pushed and popped) so that what is read there is defined.
+void attachTriangles(RTCDevice dev, RTCScene scene, TriangleMesh& m) {
+  static_assert(sizeof(Vec3f) == 3 * sizeof(float), "Embree's FLOAT3 layout");
+  static_assert(sizeof(m.indices[0]) == sizeof(unsigned), "Embree's UINT3 layout");
   RTCGeometry geom = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-  size_t nv = m.positions.size(), nt = m.triangleCount();
-  auto* vb = static_cast<float*>(
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
-  for (size_t i = 0; i < nv; ++i) {
-    vb[3 * i] = m.positions[i].x;
-    vb[3 * i + 1] = m.positions[i].y;
-    vb[3 * i + 2] = m.positions[i].z;
-  }
-  auto* ib = static_cast<unsigned*>(
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), nt));
-  for (size_t i = 0; i < 3 * nt; ++i) ib[i] = m.indices[i];
+  const size_t nv = m.positions.size(), nt = m.triangleCount();
+  if (m.positions.capacity() < nv + 1) m.positions.reserve(nv + 1);
+  m.positions.push_back(Vec3f(0.0f));
+  m.positions.pop_back();
+  rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, m.positions.data(), 0, sizeof(Vec3f),
+                             nv);
+  rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, m.indices.data(), 0,
+                             3 * sizeof(unsigned), nt);
   rtcCommitGeometry(geom);
   rtcAttachGeometry(scene, geom);
   rtcReleaseGeometry(geom);

@@ -536,7 +536,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
   TriangleMesh out;
   if (opt.count_only) return out;
   out.source = part.source + "+scratches";
-  out.positions.reserve(nv);
+  out.positions.reserve(nv + 1);  // the room past the last vertex that Embree reads (render/scene.cpp)
   out.uvs.reserve(nv);
   out.normals.reserve(nv);
   out.heights.reserve(nv);

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
@@ -855,21 +856,35 @@ void checkToolTilt(const Parser& p, const Value& d) {
 }
 
 // pattern: path needs path_mm, and path_mm is read by nothing else; its points must make a path.
-void checkScratchPath(const Parser& p, const Value& d) {
+void checkScratchPattern(const Parser& p, const Value& d) {
   const Value& pattern = d["pattern"];
-  const bool is_path = pattern.str() == "path";
-  const Value& curve = d["curve"];
-  if (!is_path && !curve.defaulted)
-    p.failAt(curve.line, curve.column,
-             "'" + curve.path + "': only pattern path reads curve (the pattern is " + pattern.str() + ")");
+  const std::string pat = pattern.str();
+  const bool is_path = pat == "path";
+  // A field the group's pattern does not read is a mistake, not something to ignore: key draws its
+  // scratches across `region` (no centre, length, curvature or direction of the user's), swirl
+  // makes its own arcs about the centre.
+  const struct {
+    const char* key;
+    std::vector<std::string> readers;
+  } read_by[] = {{"length_mm", {"random"}},          {"curvature_per_mm", {"random"}},
+                 {"orientation_deg", {"random", "path"}}, {"path_mm", {"path"}},
+                 {"curve", {"path"}},                {"center", {"random", "swirl", "path"}}};
+  for (const auto& r : read_by) {
+    if (!d.has(r.key) || d[r.key].defaulted) continue;
+    if (std::find(r.readers.begin(), r.readers.end(), pat) != r.readers.end()) continue;
+    std::string who = r.readers.size() == 1 ? "pattern " + r.readers[0] : "patterns ";
+    for (size_t i = 0; r.readers.size() > 1 && i < r.readers.size(); ++i)
+      who += (i == 0 ? "" : i + 1 == r.readers.size() ? " and " : ", ") + r.readers[i];
+    const Value& v = d[r.key];
+    p.failAt(v.line, v.column,
+             "'" + v.path + "': only " + who + " read" + (r.readers.size() == 1 ? "s " : " ") + r.key +
+                 " (the pattern is " + pat + ")");
+  }
   if (!d.has("path_mm")) {
     if (is_path) p.failAt(pattern.line, pattern.column, "'" + pattern.path + "': pattern path needs 'path_mm'");
     return;
   }
   const Value& pm = d["path_mm"];
-  if (!is_path)
-    p.failAt(pm.line, pm.column,
-             "'" + pm.path + "': only pattern path reads path_mm (the pattern is " + pattern.str() + ")");
   if (pm.items.size() % 2 != 0)
     p.failAt(pm.line, pm.column, "'" + pm.path + "': expected pairs [u, v]: an even count of numbers");
   const size_t n = pm.items.size() / 2;
@@ -915,7 +930,7 @@ void crossChecks(const Value& root, const Parser& p) {
         p.failAt(o.line, o.column, "'" + o.path + "': origin 'scratch' needs a group of type scratch in 'defects'");
     }
     if (d["type"].str() == "scratch" && !d.has("profile_mm")) checkToolTilt(p, d);
-    if (d["type"].str() == "scratch") checkScratchPath(p, d);
+    if (d["type"].str() == "scratch") checkScratchPattern(p, d);
     const Value& r = d["region"];
     if (!(r.items[0].num() < r.items[2].num() && r.items[1].num() < r.items[3].num()))
       p.failAt(r.line, r.column, "'" + r.path + "': expected [u0, v0, u1, v1] with u0 < u1 and v0 < v1");

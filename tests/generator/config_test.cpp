@@ -152,6 +152,18 @@ TEST(Config, CrossFieldRules) {
   e = errorOf(scratch("    pattern: key\n    curve: bezier\n"));
   EXPECT_NE(e.find("test.yaml:11:12: 'defects[0].curve': only pattern path reads curve (the pattern is key)"),
             std::string::npos) << e;
+  // Neither are the older fields a pattern does not read.
+  e = errorOf(scratch("    pattern: key\n    length_mm: 40\n"));
+  EXPECT_NE(e.find("test.yaml:11:16: 'defects[0].length_mm': only pattern random reads length_mm (the pattern is key)"),
+            std::string::npos) << e;
+  e = errorOf(scratch("    pattern: swirl\n    orientation_deg: 30\n"));
+  EXPECT_NE(e.find("'defects[0].orientation_deg': only patterns random and path read orientation_deg (the pattern is "
+                   "swirl)"), std::string::npos) << e;
+  e = errorOf(scratch("    pattern: key\n    center: [0.5, 0.5]\n"));
+  EXPECT_NE(e.find("'defects[0].center': only patterns random, swirl and path read center (the pattern is key)"),
+            std::string::npos) << e;
+  EXPECT_EQ(errorOf(scratch("    pattern: swirl\n    center: [0.5, 0.5]\n")), "");
+  EXPECT_EQ(errorOf(scratch("    length_mm: 40\n    curvature_per_mm: 0.1\n    orientation_deg: 10\n")), "");
   e = errorOf(scratch("    pattern: path\n    curve: spline\n    path_mm: [0, 0, 10, 0]\n"));
   EXPECT_NE(e.find("'defects[0].curve'"), std::string::npos) << e;
 }

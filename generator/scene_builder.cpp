@@ -715,6 +715,7 @@ Sample buildSample(const Dataset& ds, uint64_t seed, uint64_t index, bool check_
       meta["scratches"]["triangles"] = st.triangles;
       meta["scratches"]["cell_mm"] = st.cell_mm;
       meta["scratches"]["part_triangles_cut"] = st.part_triangles_cut;
+      meta["scratches"]["cells_capped"] = st.cells_capped;
     } catch (const std::runtime_error& e) {
       throw InputError(c.file, r["scratches"].line, r["scratches"].column, "'render.scratches': geometry: " + std::string(e.what()));
     }

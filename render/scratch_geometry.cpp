@@ -260,6 +260,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
   struct Soup {
     bool count_only = false;
     size_t vertices = 0;
+    size_t capped = 0;  // cells (per part triangle) that reached the cap of pieces
     std::vector<Vec3f> positions, normals;
     std::vector<Vec2f> uvs;
     std::vector<float> heights;
@@ -288,6 +289,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       bool abrupt = false;
     };
     std::vector<std::array<End, 2>> ends;
+    std::vector<std::vector<char>> kinks;  // per scratch in `near`: which profile vertices' kinks cut the cell
     std::vector<uint32_t> tris;
     std::vector<std::vector<Vtx>> polys, next;
     const float far = 4.0f * float(std::max(du, dv));
@@ -303,8 +305,10 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
         float reach = float(sc->referenceProfile().halfExtent()) * sc->maxScale() + far;
         PathPoint pp = sc->path().closest(p, reach);
         float kk = pp.found ? sc->scaleAt(pp.s) : 0.0f;
-        for (const Vec2d& b : sc->referenceProfile().pts)
-          f.push_back(pp.found && pp.beyond <= 0 && kk > 0 ? double(pp.offset) - double(kk) * b.x : std::nan(""));
+        const std::vector<Vec2d>& pts = sc->referenceProfile().pts;
+        for (size_t i = 0; i < pts.size(); ++i)
+          if (kinks[k][i])
+            f.push_back(pp.found && pp.beyond <= 0 && kk > 0 ? double(pp.offset) - double(kk) * pts[i].x : std::nan(""));
         // An abrupt end's line (across the end tangent, where the height drops to 0), near that end.
         for (int e = 0; e < 2; ++e) {
           const End& en = ends[k][e];
@@ -337,6 +341,29 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
           if (!sc->support().overlaps(cb)) continue;
           float reach = float(sc->referenceProfile().halfExtent()) * sc->maxScale() + half_diag;
           if (sc->path().closest(centre, reach).found) near.push_back(sc);
+        }
+      }
+      // The kinks that cut this cell. One closer to the last kept than the offsets' rounding
+      // (`merge`) at the scale of the cell's centre is left out: where a fade or the perturbation
+      // shrinks the cross-section to nanometres, the order of its kinks is rounding noise, and
+      // cutting along each of them split a cell into millions of slivers (3 million in one cell of
+      // a 4 micrometre deep scratch: 12 GB and two minutes for 2 million triangles). The facets
+      // left uncut are narrower than `merge`, which would merge their vertices anyway.
+      kinks.resize(near.size());
+      for (size_t k = 0; k < near.size(); ++k) {
+        const std::vector<Vec2d>& pts = near[k]->referenceProfile().pts;
+        kinks[k].assign(pts.size(), 1);
+        const PathPoint pc = near[k]->path().closest(
+            Vec2f(float(0.5 * (q00.x + q11.x)), float(0.5 * (q00.y + q11.y))),
+            float(near[k]->referenceProfile().halfExtent()) * near[k]->maxScale() + far);
+        const double kc = pc.found && pc.beyond <= 0 ? double(near[k]->scaleAt(pc.s)) : 0.0;
+        if (!(kc > 0)) continue;
+        double last = pts[0].x;
+        for (size_t i = 1; i < pts.size(); ++i) {
+          if (pts[i].x > last && kc * (pts[i].x - last) <= merge)
+            kinks[k][i] = 0;
+          else
+            last = pts[i].x;
         }
       }
       // Cells where the composite height can jump (two scratches meet, or an abrupt end is near)
@@ -392,8 +419,14 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
         // Cut along the kinks.
         for (auto& poly : polys)
           for (Vtx& v : poly) v.f = eval(v.uv, 0);
+        // A cell cut into more pieces than the cap keeps them and is not cut further (counted in
+        // the stats): each piece still lies on the part, with the heights of its corners.
         const size_t nf = polys[0][0].f.size();
         for (size_t fi = 0; fi < nf; ++fi) {
+          if (polys.size() > opt.max_pieces_per_cell) {
+            ++out.capped;
+            break;
+          }
           next.clear();
           for (auto& poly : polys) cutPolygon(poly, fi, 0u, true, eval, next);
           std::swap(polys, next);
@@ -524,13 +557,17 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       }
     }
   });
-  size_t nv = 3 * kept.size();
-  for (const Soup& sp : soups) nv += sp.vertices;
+  size_t nv = 3 * kept.size(), capped = 0;
+  for (const Soup& sp : soups) {
+    nv += sp.vertices;
+    capped += sp.capped;
+  }
   if (nv / 3 > opt.max_triangles)
     throw std::runtime_error("the scratch geometry would exceed " + std::to_string(opt.max_triangles) + " triangles");
   if (stats) {
     stats->triangles = nv / 3;
     stats->part_triangles_cut = cut.size();
+    stats->cells_capped = capped;
     stats->cell_mm = std::max(du, dv);
   }
   TriangleMesh out;

@@ -29,6 +29,10 @@ struct ScratchGeometryOptions {
   // along the path is followed (the cross-sections themselves are exact at any size).
   double cell_mm = 0;
   size_t max_triangles = 40'000'000;  // refuse rather than exhaust memory
+  // A finest cell (within one part triangle) is cut along the kinks until it holds this many
+  // pieces, then left as it is: a bound on the work and the triangles of one cell whatever the
+  // scratches. The scenes of the accuracy tests and the bench need at most 91.
+  size_t max_pieces_per_cell = 4096;
   // Only cut and count: the mesh returned is empty, stats get the figures the full mesh would
   // have, and the same errors are thrown (generate's check of every sample before it writes).
   bool count_only = false;
@@ -36,6 +40,7 @@ struct ScratchGeometryOptions {
 struct ScratchGeometryStats {
   size_t triangles = 0;
   size_t part_triangles_cut = 0;  // part triangles that a cross-section reaches (re-meshed)
+  size_t cells_capped = 0;        // cells left at max_pieces_per_cell (0 on every scene we know)
   double cell_mm = 0;
 };
 

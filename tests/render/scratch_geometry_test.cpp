@@ -158,6 +158,77 @@ TEST(ScratchGeometry, CountingAloneGivesTheMeshsFiguresAndItsErrors) {
   }
 }
 
+// A very fine process scratch (1 kg on HV 232: 4 micrometres deep, 50 profile vertices, some
+// 40 nanometres apart) with long fades and a strong perturbation, far from the chart's origin (UV
+// up to 40 mm, where a float offset is rounded to nanometres). Where the force law takes the depth
+// to nearly 0 the whole section is a few nanometres wide and the kinks' order is rounding noise;
+// cutting along each of them used to split every piece again (a fuzzed config's cell was cut into
+// 3 million pieces: 12 GB and two minutes for 2 million triangles). Now the fades cost no more
+// triangles than the unfaded scratch, no cell reaches the cap of pieces, and the vertices still
+// lie on the cross-section.
+TEST(ScratchGeometry, AFadeToNanometresAddsNoSlivers) {
+  PlateParams pp;
+  pp.width_mm = 40;
+  pp.height_mm = 40;
+  TriangleMesh plate = makePlate(pp, 10);
+  ScratchProcess proc;
+  proc.tool.apex_angle_rad = 85.5 * kPi / 180;
+  proc.tool.tip_radius_mm = 0.002;
+  proc.tool.theta_rad = 31.85 * kPi / 180;
+  proc.tool.phi_rad = 15.6 * kPi / 180;
+  proc.force_kg = 1;
+  proc.hardness_hv = 232;
+  proc.pileup = 0.098;
+  const ScratchPath path = ScratchPath::polyline({{24.0, 11.3}, {31.0, 13.9}});
+  ScratchPerturbation pert;
+  pert.fade_length_mm = 3;
+  pert.noise_amplitude = 0.84;
+  pert.noise_wavelength_mm = 3;
+  pert.noise_seed = 7;
+  Scratch faded = Scratch::fromProcess(path, proc, pert);
+  Scratch blunt = Scratch::fromProcess(path, proc);
+  ASSERT_GT(faded.referenceProfile().pts.size(), 30u);
+  ScratchGeometryStats sf, sb;
+  TriangleMesh m = scratchedMesh(plate, {&faded}, {}, &sf);
+  ScratchGeometryOptions count;
+  count.count_only = true;
+  scratchedMesh(plate, {&blunt}, count, &sb);
+  ASSERT_GT(sb.triangles, 10000u);
+  EXPECT_LE(sf.triangles, sb.triangles);
+  EXPECT_EQ(sf.cells_capped, 0u);
+  double worst = 0;
+  for (size_t i = 0; i < m.positions.size(); ++i)
+    worst = std::max(worst, std::fabs(double(m.positions[i].z) - double(faded.height(m.uvs[i]))));
+  EXPECT_LT(worst, 2e-6);
+}
+
+// The cap of pieces per cell bounds a cell's cuts: at 1 a V-groove's cells are cut along one of
+// its kinks only; the cells that reach it are counted, and the mesh still follows the section
+// at its vertices.
+TEST(ScratchGeometry, TheCapOfPiecesPerCellIsCounted) {
+  PlateParams pp;
+  pp.width_mm = 20;
+  pp.height_mm = 20;
+  TriangleMesh plate = makePlate(pp, 5);
+  // Cells of 0.625 mm, the groove 0.1 mm wide inside one row of them: its three kinks cross each.
+  Profile p = Profile::fromPolyline({{-0.05, 0.0}, {0.0, -0.03}, {0.05, 0.0}});
+  Scratch s = Scratch::fromProfile(ScratchPath::polyline({{5.0, 10.3}, {15.0, 10.3}}), p);
+  ScratchGeometryOptions o;
+  o.cell_mm = 0.7;
+  ScratchGeometryStats full, capped;
+  TriangleMesh m0 = scratchedMesh(plate, {&s}, o, &full);
+  o.max_pieces_per_cell = 1;
+  TriangleMesh m1 = scratchedMesh(plate, {&s}, o, &capped);
+  EXPECT_EQ(full.cells_capped, 0u);
+  EXPECT_GT(capped.cells_capped, 0u);
+  EXPECT_LT(capped.triangles, full.triangles);
+  double worst = 0;
+  for (size_t i = 0; i < m1.positions.size(); ++i)  // away from the abrupt ends: their walls need cut pieces
+    if (m1.uvs[i].x > 8 && m1.uvs[i].x < 12)  // the ends reach 2.6 mm with cells this coarse
+      worst = std::max(worst, std::fabs(double(m1.positions[i].z) - double(s.height(m1.uvs[i]))));
+  EXPECT_LT(worst, 1e-5);
+}
+
 // On a curved part (a door skin bowed across its height, arc-length UVs): each vertex sits at the
 // part's surface moved along its interpolated normal by the scratch's height; the walls' normals
 // make the profile's slope with that normal and lie across the path; the pieces tile the chart;

@@ -4,12 +4,23 @@
 #include <cstdio>
 #include <iostream>
 #include <regex>
+#include <string>
 
 #include "core/error.h"
 #include "core/version.h"
 #include "generator/commands.h"
 #include "generator/config.h"
 #include "generator/runner.h"
+
+namespace {
+// A message as one line: control characters that a bad file's bytes bring into it (a quoted token,
+// a vertical tab or a newline) are shown as '?', so that an error stays one line on any terminal.
+std::string oneLine(std::string s) {
+  for (char& c : s)
+    if ((c >= 0 && c < 32) || c == 127) c = '?';
+  return s;
+}
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace dg;
@@ -81,7 +92,7 @@ int main(int argc, char** argv) {
       std::vector<InputError> errors;
       Config c = loadConfigAllErrors(validate_path, errors);
       if (!errors.empty()) {
-        for (const InputError& e : errors) std::fprintf(stderr, "defectgen: error: %s\n", e.what());
+        for (const InputError& e : errors) std::fprintf(stderr, "defectgen: error: %s\n", oneLine(e.what()).c_str());
         std::fprintf(stderr, "defectgen: %zu error(s) in %s\n", errors.size(), validate_path.c_str());
         return kExitInputError;
       }
@@ -98,10 +109,10 @@ int main(int argc, char** argv) {
       return 0;
     }
   } catch (const InputError& e) {
-    std::fprintf(stderr, "defectgen: error: %s\n", e.what());
+    std::fprintf(stderr, "defectgen: error: %s\n", oneLine(e.what()).c_str());
     return kExitInputError;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "defectgen: internal error: %s\n", e.what());
+    std::fprintf(stderr, "defectgen: internal error: %s\n", oneLine(e.what()).c_str());
     return 1;
   }
   return 0;

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <sstream>
 #include <string_view>
 #include <type_traits>
@@ -42,6 +43,7 @@
 #include <assimp/scene.h>
 
 #include "core/error.h"
+#include "render/mesh_text.h"
 
 namespace dg {
 
@@ -75,62 +77,10 @@ std::string fmt(double v) {
   return s.str();
 }
 
-// Parses a whole token as a double, locale-independently. Accepts a leading '+', "nan", "inf"; an
-// out-of-range literal gives +-inf (overflow) or a tiny value (underflow), as strtod would.
-bool parseDouble(std::string_view tok, double& out) {
-  if (!tok.empty() && tok.front() == '+') tok.remove_prefix(1);
-  if (tok.empty()) return false;
-  auto [ptr, ec] = std::from_chars(tok.data(), tok.data() + tok.size(), out);
-  if (ptr != tok.data() + tok.size()) return false;
-  if (ec == std::errc::result_out_of_range) {
-    out = std::strtod(std::string(tok).c_str(), nullptr);
-    return true;
-  }
-  return ec == std::errc();
-}
-
-bool parseLong(std::string_view tok, long& out) {
-  if (!tok.empty() && tok.front() == '+') tok.remove_prefix(1);
-  if (tok.empty()) return false;
-  auto [ptr, ec] = std::from_chars(tok.data(), tok.data() + tok.size(), out);
-  return ec == std::errc() && ptr == tok.data() + tok.size();
-}
-
-// Whitespace-separated tokens of a line, with their 1-based columns.
-struct Token {
-  std::string_view text;
-  int column;
-};
-std::vector<Token> tokenize(std::string_view line) {
-  std::vector<Token> out;
-  size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
-    const size_t start = i;
-    while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
-    if (i > start) out.push_back({line.substr(start, i - start), int(start) + 1});
-  }
-  return out;
-}
-
-// After a text reader has failed: looks for a number that parses but is not finite (nan, inf,
-// 1e999), which CGAL's stream readers reject without saying why. Returns false if there is none.
-bool findNonFiniteToken(const std::string& path, int& line, int& column, std::string& token) {
-  std::ifstream in(path, std::ios::binary);
-  std::string s;
-  for (line = 1; std::getline(in, s); ++line) {
-    if (!s.empty() && s.back() == '\r') s.pop_back();
-    for (const Token& t : tokenize(s)) {
-      double v;
-      if (parseDouble(t.text, v) && !std::isfinite(v)) {
-        column = t.column;
-        token = std::string(t.text);
-        return true;
-      }
-    }
-  }
-  return false;
-}
+using meshtext::parseDouble;
+using meshtext::parseLong;
+using meshtext::Token;
+using meshtext::tokenize;
 
 // ---------------------------------------------------------------------------------------------
 // OBJ. CGAL's OBJ reader ignores vt and vn, so OBJ is parsed here: v, vt, vn and f (v, v/vt,
@@ -354,7 +304,6 @@ RawMesh readWithCgal(const std::string& path, const std::string& ext) {
   std::vector<Kernel::Vector_3> normals;
   std::vector<Kernel::Point_2> texcoords;
   bool ok = false;
-  std::string why;
   const std::string format = ext == ".ply" ? "PLY" : ext == ".stl" ? "STL" : "OFF";
   if (ext == ".off") checkOffHeader(path);
   if (ext == ".stl") checkBinaryStl(path);
@@ -369,20 +318,28 @@ RawMesh readWithCgal(const std::string& path, const std::string& ext) {
                                   .vertex_texture_output_iterator(std::back_inserter(texcoords))
                                   .verbose(false));
     }
-  } catch (const std::exception& e) {  // CGAL assertions throw; so does a failed allocation
+  } catch (const std::exception&) {  // CGAL assertions throw; so does a failed allocation
     ok = false;
-    why = std::string(": ") + e.what();
   }
+  // CGAL says only that it failed, or it reads what it can (a face index past the vertices, a
+  // misspelt PLY type that leaves no faces): find where and why (render/mesh_text.h).
+  auto diagnose = [&] {
+    std::optional<meshtext::FileProblem> p = meshtext::findNonFinite(path);
+    if (!p) p = ext == ".ply" ? meshtext::diagnosePly(path) : ext == ".stl" ? meshtext::diagnoseStl(path) : meshtext::diagnoseOff(path);
+    if (p) throw InputError(path, p->line, p->column, p->what);
+  };
   if (!ok) {
-    int line = 0, col = 0;
-    std::string tok;
-    if (findNonFiniteToken(path, line, col, tok))
-      throw InputError(path, line, col, "non-finite coordinate (" + tok + ")");
-    throw InputError(path, "cannot parse the " + format + " file" +
-                               (why.empty() ? std::string(" (malformed or truncated)") : why));
+    diagnose();
+    throw InputError(path, "cannot parse the " + format + " file (malformed or truncated)");
   }
   RawMesh raw;
-  soupToRaw(path, pts, polys, raw);
+  try {
+    soupToRaw(path, pts, polys, raw);
+  } catch (const InputError&) {
+    diagnose();
+    throw;
+  }
+  if (raw.tris.empty()) diagnose();
   if (normals.size() == pts.size() && !pts.empty())
     for (const auto& n : normals) raw.nrm.push_back({n.x(), n.y(), n.z()});
   if (texcoords.size() == pts.size() && !pts.empty())
@@ -444,8 +401,13 @@ RawMesh readGltf(const std::string& path) {
   } catch (const std::exception& e) {
     throw InputError(path, std::string("cannot parse the glTF file: ") + e.what());
   }
-  if (!scene || !scene->mRootNode || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE))
-    throw InputError(path, std::string("cannot parse the glTF file: ") + importer.GetErrorString());
+  if (!scene || !scene->mRootNode || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE)) {
+    if (lower(fs::path(path).extension().string()) == ".glb")
+      if (auto p = meshtext::diagnoseGlb(path)) throw InputError(path, p->what);
+    if (auto p = meshtext::diagnoseGltfJson(path)) throw InputError(path, p->line, p->column, p->what);
+    const std::string why = importer.GetErrorString();
+    throw InputError(path, "cannot parse the glTF file: " + (why.empty() ? std::string("malformed or truncated") : why));
+  }
   RawMesh raw;
   bool uvMissing = false, nMissing = false;
   try {

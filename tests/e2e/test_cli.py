@@ -278,9 +278,15 @@ class BadInput(unittest.TestCase):
             "degenerate.obj": "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 1 1 2\n",
             # A closed tetrahedron without UVs cannot be flattened into one chart.
             "closed.off": "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n",
+            # A control character in a bad token (here a vertical tab) is shown as '?': the message
+            # stays one line (found by scripts/fuzz-meshes).
+            "control.obj": "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt \x0b.5 0\n",
+            # A negative corner count (CGAL threw std::length_error, whose text was the message).
+            "corners.off": "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n-3 0 1 2\n",
         }
         expect = {"nan.obj": ["nan.obj"], "degenerate.obj": ["degenerate.obj", "degenerate"],
-                  "closed.off": ["closed.off", "parameteriz"]}
+                  "closed.off": ["closed.off", "parameteriz"], "control.obj": ["control.obj:5:4", "'?.5'"],
+                  "corners.off": ["corners.off:6:1", "expected its number of corners (an integer >= 3), found '-3'"]}
         for name, text in meshes.items():
             with self.subTest(name):
                 with open(os.path.join(d, name), "w") as f:

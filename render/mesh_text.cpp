@@ -1,0 +1,417 @@
+#include "render/mesh_text.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <system_error>
+
+#include <nlohmann/json.hpp>
+
+namespace dg::meshtext {
+
+bool parseDouble(std::string_view tok, double& out) {
+  if (!tok.empty() && tok.front() == '+') tok.remove_prefix(1);
+  if (tok.empty()) return false;
+  auto [ptr, ec] = std::from_chars(tok.data(), tok.data() + tok.size(), out);
+  if (ptr != tok.data() + tok.size()) return false;
+  if (ec == std::errc::result_out_of_range) {
+    out = std::strtod(std::string(tok).c_str(), nullptr);
+    return true;
+  }
+  return ec == std::errc();
+}
+
+bool parseLong(std::string_view tok, long& out) {
+  if (!tok.empty() && tok.front() == '+') tok.remove_prefix(1);
+  if (tok.empty()) return false;
+  auto [ptr, ec] = std::from_chars(tok.data(), tok.data() + tok.size(), out);
+  return ec == std::errc() && ptr == tok.data() + tok.size();
+}
+
+std::vector<Token> tokenize(std::string_view line) {
+  std::vector<Token> out;
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+    const size_t start = i;
+    while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
+    if (i > start) out.push_back({line.substr(start, i - start), int(start) + 1});
+  }
+  return out;
+}
+
+namespace {
+
+struct Tok {
+  std::string text;
+  int column;
+};
+// A line with at least one token.
+struct DataLine {
+  int number;
+  std::vector<Tok> tok;
+  int end;  // the column just past its last character
+};
+
+// The file's lines that hold tokens, with '\r' removed and, if `comment` is not 0, everything from
+// that character on.
+std::vector<DataLine> dataLines(const std::string& path, char comment) {
+  std::vector<DataLine> out;
+  std::ifstream in(path, std::ios::binary);
+  std::string s;
+  for (int n = 1; std::getline(in, s); ++n) {
+    if (!s.empty() && s.back() == '\r') s.pop_back();
+    if (comment != 0) {
+      const size_t c = s.find(comment);
+      if (c != std::string::npos) s.resize(c);
+    }
+    DataLine l{n, {}, 0};
+    for (const Token& t : tokenize(s)) {
+      l.tok.push_back({std::string(t.text), t.column});
+      l.end = t.column + int(t.text.size());
+    }
+    if (!l.tok.empty()) out.push_back(std::move(l));
+  }
+  return out;
+}
+
+// A token as a message shows it: quoted, at most 40 characters, bytes that do not print as '?'.
+std::string quoted(const std::string& s) {
+  std::string q = "'";
+  for (size_t i = 0; i < s.size() && i < 40; ++i) q += (s[i] >= 32 && s[i] < 127) ? s[i] : '?';
+  return q + (s.size() > 40 ? "...'" : "'");
+}
+
+FileProblem at(const DataLine& l, const Tok& t, const std::string& what) { return {l.number, t.column, what}; }
+FileProblem pastEnd(const DataLine& l, const std::string& what) { return {l.number, l.end, what}; }
+
+bool finiteNumber(const std::string& s) {
+  double v;
+  return parseDouble(s, v) && std::isfinite(v);
+}
+
+// Checks that tokens [from, from + count) of line l are finite numbers; `what` names them.
+std::optional<FileProblem> numbers(const DataLine& l, size_t from, size_t count, const std::string& what) {
+  for (size_t k = from; k < from + count; ++k) {
+    if (k >= l.tok.size())
+      return pastEnd(l, what + ": expected " + std::to_string(count) + " numbers, found " + std::to_string(k - from));
+    if (!finiteNumber(l.tok[k].text))
+      return at(l, l.tok[k], what + ": expected a finite number, found " + quoted(l.tok[k].text));
+  }
+  return std::nullopt;
+}
+
+// A face's corner indices: tokens [from, from + count) of line l, each an integer in [0, nv).
+std::optional<FileProblem> indices(const DataLine& l, size_t from, long count, long nv, const std::string& what) {
+  for (long k = 0; k < count; ++k) {
+    const size_t i = from + size_t(k);
+    if (i >= l.tok.size())
+      return pastEnd(l, what + ": expected " + std::to_string(count) + " vertex indices, found " + std::to_string(k));
+    long v;
+    if (!parseLong(l.tok[i].text, v) || v < 0 || v >= nv)
+      return at(l, l.tok[i], what + ": expected a vertex index from 0 to " + std::to_string(nv - 1) + ", found " +
+                                 quoted(l.tok[i].text));
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<FileProblem> findNonFinite(const std::string& path) {
+  for (const DataLine& l : dataLines(path, 0))
+    for (const Tok& t : l.tok) {
+      double v;
+      if (parseDouble(t.text, v) && !std::isfinite(v)) return at(l, t, "non-finite coordinate (" + t.text + ")");
+    }
+  return std::nullopt;
+}
+
+std::optional<FileProblem> diagnoseOff(const std::string& path) {
+  const std::vector<DataLine> lines = dataLines(path, '#');
+  if (lines.empty()) return FileProblem{0, 0, "the file is empty; expected the OFF header"};
+  const DataLine& head = lines[0];
+  const std::string& kw = head.tok[0].text;
+  if (kw.size() < 3 || kw.compare(kw.size() - 3, 3, "OFF") != 0)
+    return at(head, head.tok[0], "expected the header keyword OFF (or COFF, NOFF, STOFF, ...), found " + quoted(kw));
+  bool normals = false, colours = false, texcoords = false;
+  for (size_t i = 0; i + 3 < kw.size();) {
+    if (kw.compare(i, 2, "ST") == 0) {
+      texcoords = true;
+      i += 2;
+    } else if (kw[i] == 'C' || kw[i] == 'N') {
+      (kw[i] == 'C' ? colours : normals) = true;
+      ++i;
+    } else {
+      return std::nullopt;  // 4OFF, nOFF: not looked into
+    }
+  }
+  // The counts follow the keyword, on its line or the next.
+  size_t li = 0, ti = 1;
+  if (head.tok.size() == 1) li = 1, ti = 0;
+  if (li >= lines.size()) return pastEnd(head, "the file ends after the header; expected the vertex and face counts");
+  const DataLine& cl = lines[li];
+  if (cl.tok[ti].text == "BINARY") return std::nullopt;
+  long nv = -1, nf = -1;
+  for (long* c : {&nv, &nf}) {
+    if (ti >= cl.tok.size()) return pastEnd(cl, "expected the vertex and face counts, found one number");
+    if (!parseLong(cl.tok[ti].text, *c) || *c < 0)
+      return at(cl, cl.tok[ti], std::string("expected the ") + (c == &nv ? "vertex" : "face") +
+                                    " count (an integer >= 0), found " + quoted(cl.tok[ti].text));
+    ++ti;
+  }
+  const size_t per_vertex = 3 + (normals ? 3 : 0) + (colours ? 1 : 0) + (texcoords ? 2 : 0);
+  size_t next = li + 1;
+  for (long v = 0; v < nv; ++v, ++next) {
+    if (next >= lines.size())
+      return pastEnd(lines.back(), "the file ends after " + std::to_string(v) + " of the " + std::to_string(nv) +
+                                       " vertices the header declares");
+    const DataLine& l = lines[next];
+    if (auto p = numbers(l, 0, std::max(per_vertex, l.tok.size()), "vertex " + std::to_string(v) + " (counting from 0)")) return p;
+  }
+  for (long f = 0; f < nf; ++f, ++next) {
+    if (next >= lines.size())
+      return pastEnd(lines.back(), "the file ends after " + std::to_string(f) + " of the " + std::to_string(nf) +
+                                       " faces the header declares");
+    const DataLine& l = lines[next];
+    const std::string what = "face " + std::to_string(f) + " (counting from 0)";
+    long k;
+    if (!parseLong(l.tok[0].text, k) || k < 3) {
+      double x;
+      const bool coordinate = parseDouble(l.tok[0].text, x) && x != std::floor(x);
+      return at(l, l.tok[0], what + ": expected its number of corners (an integer >= 3), found " + quoted(l.tok[0].text) +
+                                 (coordinate ? " (more vertex lines than the header's " + std::to_string(nv) + "?)" : ""));
+    }
+    if (auto p = indices(l, 1, k, nv, what)) return p;
+    if (auto p = numbers(l, 1 + size_t(k), l.tok.size() - 1 - size_t(k), what + " colour")) return p;
+  }
+  return std::nullopt;
+}
+
+std::optional<FileProblem> diagnoseStl(const std::string& path) {
+  std::error_code ec;
+  const uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec) return std::nullopt;
+  const std::vector<DataLine> lines = dataLines(path, 0);
+  if (lines.empty() || lines[0].tok[0].text != "solid") {
+    if (size == 0) return FileProblem{0, 0, "the file is empty"};
+    if (size < 84) return FileProblem{0, 0, "neither an ASCII STL (which starts with 'solid') nor a binary one (84 bytes of header and count, the file has " + std::to_string(size) + ")"};
+    unsigned char c[4];
+    std::ifstream in(path, std::ios::binary);
+    in.seekg(80);
+    in.read(reinterpret_cast<char*>(c), 4);
+    const uintmax_t n = c[0] | (c[1] << 8) | (c[2] << 16) | (uintmax_t(c[3]) << 24);
+    if (size != 84 + 50 * n)
+      return FileProblem{0, 0, "a binary STL declaring " + std::to_string(n) + " facets is " + std::to_string(84 + 50 * n) +
+                                   " bytes long, the file has " + std::to_string(size) + " (truncated, or not an STL file)"};
+    return std::nullopt;
+  }
+  // ASCII: solid [name] { facet normal n n n  outer loop  vertex x y z (x3)  endloop  endfacet } endsolid
+  // The name is the rest of the first line.
+  size_t li = 1, ti = 0;
+  auto done = [&] { return li >= lines.size(); };
+  auto tok = [&]() -> const Tok& { return lines[li].tok[ti]; };
+  auto advance = [&] {
+    if (++ti >= lines[li].tok.size()) ++li, ti = 0;
+  };
+  long facet = 0;
+  auto expect = [&](const std::string& word, const std::string& where) -> std::optional<FileProblem> {
+    if (done()) return pastEnd(lines.back(), "the file ends " + where + "; expected '" + word + "'");
+    if (tok().text != word)
+      return at(lines[li], tok(), "expected '" + word + "' " + where + ", found " + quoted(tok().text));
+    advance();
+    return std::nullopt;
+  };
+  auto number = [&](const std::string& what) -> std::optional<FileProblem> {
+    if (done()) return pastEnd(lines.back(), "the file ends in " + what + "; expected a number");
+    if (!finiteNumber(tok().text)) return at(lines[li], tok(), what + ": expected a finite number, found " + quoted(tok().text));
+    advance();
+    return std::nullopt;
+  };
+  while (true) {
+    if (done()) return pastEnd(lines.back(), "the file ends after " + std::to_string(facet) + " facets; expected 'endsolid'");
+    if (tok().text == "endsolid") return std::nullopt;
+    const std::string in = "in facet " + std::to_string(facet) + " (counting from 0)";
+    if (auto p = expect("facet", "or 'endsolid' after facet " + std::to_string(facet))) return p;
+    if (auto p = expect("normal", in)) return p;
+    for (int k = 0; k < 3; ++k)
+      if (auto p = number("the normal " + in)) return p;
+    if (auto p = expect("outer", in)) return p;
+    if (auto p = expect("loop", in)) return p;
+    for (int c = 0; c < 3; ++c) {
+      if (auto p = expect("vertex", in)) return p;
+      for (int k = 0; k < 3; ++k)
+        if (auto p = number("vertex " + std::to_string(c) + " " + in)) return p;
+    }
+    if (auto p = expect("endloop", in)) return p;
+    if (auto p = expect("endfacet", in)) return p;
+    ++facet;
+  }
+}
+
+std::optional<FileProblem> diagnosePly(const std::string& path) {
+  const std::vector<DataLine> lines = dataLines(path, 0);
+  if (lines.empty()) return FileProblem{0, 0, "the file is empty; expected the PLY header"};
+  if (lines[0].tok[0].text != "ply" || lines[0].tok.size() != 1)
+    return at(lines[0], lines[0].tok[0], "expected 'ply' alone on the first line, found " + quoted(lines[0].tok[0].text));
+  struct Property {
+    std::string name;
+    bool list = false;
+  };
+  struct Element {
+    std::string name;
+    long count = 0;
+    std::vector<Property> props;
+  };
+  static const std::map<std::string, bool> kTypes = {  // type -> integer
+      {"char", true},   {"uchar", true},  {"short", true},  {"ushort", true},  {"int", true},    {"uint", true},
+      {"int8", true},   {"uint8", true},  {"int16", true},  {"uint16", true},  {"int32", true},  {"uint32", true},
+      {"float", false}, {"double", false}, {"float32", false}, {"float64", false}};
+  std::vector<Element> elements;
+  bool ascii = false, format = false;
+  size_t li = 1;
+  for (;; ++li) {
+    if (li >= lines.size()) return pastEnd(lines.back(), "the file ends in the header; expected 'end_header'");
+    const DataLine& l = lines[li];
+    const std::string& w = l.tok[0].text;
+    if (w == "end_header") break;
+    if (w == "comment" || w == "obj_info") continue;
+    if (w == "format") {
+      if (l.tok.size() != 3 || (l.tok[1].text != "ascii" && l.tok[1].text != "binary_little_endian" &&
+                                l.tok[1].text != "binary_big_endian"))
+        return at(l, l.tok[0], "expected 'format ascii 1.0' (or binary_little_endian, binary_big_endian)");
+      ascii = l.tok[1].text == "ascii";
+      format = true;
+    } else if (w == "element") {
+      long n;
+      if (l.tok.size() != 3 || !parseLong(l.tok[2].text, n) || n < 0)
+        return at(l, l.tok[0], "expected 'element NAME COUNT' with a count >= 0");
+      elements.push_back({l.tok[1].text, n, {}});
+    } else if (w == "property") {
+      if (elements.empty()) return at(l, l.tok[0], "a property before any 'element'");
+      const bool list = l.tok.size() >= 2 && l.tok[1].text == "list";
+      const size_t want = list ? 5 : 3;
+      if (l.tok.size() != want) return at(l, l.tok[0], list ? "expected 'property list COUNT_TYPE INDEX_TYPE NAME'" : "expected 'property TYPE NAME'");
+      for (size_t k = list ? 2 : 1; k + 1 < want; ++k)
+        if (!kTypes.count(l.tok[k].text))
+          return at(l, l.tok[k], "expected a PLY type (char, uchar, short, ushort, int, uint, float, double, ...), found " + quoted(l.tok[k].text));
+      elements.back().props.push_back({l.tok[want - 1].text, list});
+    } else {
+      return at(l, l.tok[0], "expected a header line (format, element, property, comment or end_header), found " + quoted(w));
+    }
+  }
+  if (!format) return at(lines[li], lines[li].tok[0], "the header has no 'format' line");
+  if (!ascii) return std::nullopt;
+  long nvertex = 0;
+  for (const Element& e : elements)
+    if (e.name == "vertex") nvertex = e.count;
+  size_t next = li + 1;
+  for (const Element& e : elements)
+    for (long r = 0; r < e.count; ++r, ++next) {
+      if (next >= lines.size())
+        return pastEnd(lines.back(), "the file ends after " + std::to_string(r) + " of the " + std::to_string(e.count) +
+                                         " '" + e.name + "' lines the header declares");
+      const DataLine& l = lines[next];
+      const std::string what = e.name + " " + std::to_string(r) + " (counting from 0)";
+      size_t t = 0;
+      for (const Property& p : e.props) {
+        if (t >= l.tok.size()) return pastEnd(l, what + ": expected a value for '" + p.name + "'");
+        if (!p.list) {
+          if (!finiteNumber(l.tok[t].text))
+            return at(l, l.tok[t], what + ": expected a finite number for '" + p.name + "', found " + quoted(l.tok[t].text));
+          ++t;
+          continue;
+        }
+        long k;
+        if (!parseLong(l.tok[t].text, k) || k < 0)
+          return at(l, l.tok[t], what + ": expected the length of '" + p.name + "' (an integer >= 0), found " + quoted(l.tok[t].text));
+        ++t;
+        const bool corners = e.name == "face" && (p.name == "vertex_indices" || p.name == "vertex_index");
+        if (corners && k < 3) return at(l, l.tok[t - 1], what + ": expected at least 3 corners, found " + std::to_string(k));
+        if (corners) {
+          if (auto q = indices(l, t, k, nvertex, what)) return q;
+        } else if (auto q = numbers(l, t, size_t(k), what + " '" + p.name + "'")) {
+          return q;
+        }
+        t += size_t(k);
+      }
+      if (t < l.tok.size())
+        return at(l, l.tok[t], what + ": " + std::to_string(l.tok.size() - t) + " value(s) more than the header's properties");
+    }
+  return std::nullopt;
+}
+
+std::optional<FileProblem> diagnoseGlb(const std::string& path) {
+  std::error_code ec;
+  const uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec) return std::nullopt;
+  unsigned char h[20] = {};
+  std::ifstream in(path, std::ios::binary);
+  in.read(reinterpret_cast<char*>(h), 20);
+  auto u32 = [&](int at) { return uintmax_t(h[at]) | uintmax_t(h[at + 1]) << 8 | uintmax_t(h[at + 2]) << 16 | uintmax_t(h[at + 3]) << 24; };
+  if (size < 12) return FileProblem{0, 0, "a binary glTF starts with a 12-byte header; the file has " + std::to_string(size) + " bytes"};
+  if (std::memcmp(h, "glTF", 4) != 0) return FileProblem{0, 0, "not a binary glTF: the file does not start with 'glTF'"};
+  if (u32(4) != 2) return FileProblem{0, 0, "binary glTF version " + std::to_string(u32(4)) + "; expected 2"};
+  if (u32(8) != size)
+    return FileProblem{0, 0, "the header declares " + std::to_string(u32(8)) + " bytes, the file has " + std::to_string(size) +
+                                 " (truncated?)"};
+  if (size < 20) return FileProblem{0, 0, "the file ends before its first chunk; expected the JSON chunk"};
+  if (std::memcmp(h + 16, "JSON", 4) != 0) return FileProblem{0, 0, "the first chunk is not the JSON chunk"};
+  if (20 + u32(12) > size)
+    return FileProblem{0, 0, "the JSON chunk declares " + std::to_string(u32(12)) + " bytes, more than the file holds"};
+  return std::nullopt;
+}
+
+std::optional<FileProblem> diagnoseGltfJson(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const bool glb = text.size() >= 20 && text.compare(0, 4, "glTF") == 0;
+  if (glb) {
+    const auto* h = reinterpret_cast<const unsigned char*>(text.data());
+    const size_t n = size_t(h[12]) | size_t(h[13]) << 8 | size_t(h[14]) << 16 | size_t(h[15]) << 24;
+    if (20 + n > text.size()) return std::nullopt;
+    text = text.substr(20, n);
+  }
+  // Where a byte offset lies in the .gltf's text (a .glb's chunk has no lines: its byte).
+  auto place = [&](size_t at, std::string why) {
+    for (char& ch : why)
+      if (!(ch >= 32 && ch < 127)) ch = '?';  // the bytes the parser last read, as they may be
+    if (glb) return FileProblem{0, 0, "the JSON chunk, byte " + std::to_string(at) + ": " + why};
+    int line = 1, col = 1;
+    for (size_t i = 0; i < at && i < text.size(); ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        col = 1;
+      } else {
+        ++col;
+      }
+    }
+    return FileProblem{line, col, why};
+  };
+  try {
+    (void)nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    // e.what(): "[json.exception.parse_error.101] parse error at line L, column C: WHY"
+    std::string why = e.what();
+    const size_t c = why.find(": ", why.find("parse error"));
+    return place(e.byte > 0 ? size_t(e.byte - 1) : 0, "invalid JSON: " + (c == std::string::npos ? why : why.substr(c + 2)));
+  } catch (const nlohmann::json::exception& e) {
+    // e.g. "[json.exception.out_of_range.406] number overflow parsing '1e999'": no position given,
+    // so the quoted literal is looked up in the text.
+    std::string why = e.what();
+    const size_t b = why.find("] ");
+    why = why.substr(b == std::string::npos ? 0 : b + 2);
+    const size_t q0 = why.find('\''), q1 = q0 == std::string::npos ? q0 : why.find('\'', q0 + 1);
+    size_t at = 0;
+    if (q1 != std::string::npos) at = text.find(why.substr(q0 + 1, q1 - q0 - 1));
+    if (at == std::string::npos) at = 0;
+    return place(at, "invalid JSON: " + why);
+  }
+  return std::nullopt;
+}
+
+}  // namespace dg::meshtext

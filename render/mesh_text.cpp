@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <system_error>
 
@@ -120,6 +121,28 @@ std::optional<FileProblem> indices(const DataLine& l, size_t from, long count, l
   return std::nullopt;
 }
 
+// A PLY value against its property's type: a float that a float holds, an integer in its range.
+std::optional<FileProblem> typed(const DataLine& l, const Tok& t, const std::string& type, const std::string& what) {
+  static const std::map<std::string, std::pair<double, double>> kRanges = {
+      {"char", {-128, 127}},          {"int8", {-128, 127}},           {"uchar", {0, 255}},   {"uint8", {0, 255}},
+      {"short", {-32768, 32767}},     {"int16", {-32768, 32767}},      {"ushort", {0, 65535}}, {"uint16", {0, 65535}},
+      {"int", {-2147483648.0, 2147483647.0}}, {"int32", {-2147483648.0, 2147483647.0}},
+      {"uint", {0, 4294967295.0}},    {"uint32", {0, 4294967295.0}}};
+  double v;
+  const auto r = kRanges.find(type);
+  if (r != kRanges.end()) {
+    long n;
+    if (!parseLong(t.text, n) || double(n) < r->second.first || double(n) > r->second.second)
+      return at(l, t, what + ": expected an integer that a " + type + " holds, found " + quoted(t.text));
+    return std::nullopt;
+  }
+  const double limit = type == "float" || type == "float32" ? double(std::numeric_limits<float>::max())
+                                                            : std::numeric_limits<double>::max();
+  if (!parseDouble(t.text, v) || !(std::fabs(v) <= limit))
+    return at(l, t, what + ": expected a number that a " + type + " holds, found " + quoted(t.text));
+  return std::nullopt;
+}
+
 }  // namespace
 
 std::optional<FileProblem> findNonFinite(const std::string& path) {
@@ -164,6 +187,10 @@ std::optional<FileProblem> diagnoseOff(const std::string& path) {
                                     " count (an integer >= 0), found " + quoted(cl.tok[ti].text));
     ++ti;
   }
+  long ne;  // the edge count, which CGAL reads (as an int) and ignores
+  if (ti >= cl.tok.size()) return pastEnd(cl, "expected the edge count after the vertex and face counts (0 will do)");
+  if (!parseLong(cl.tok[ti].text, ne) || ne < 0 || ne > 2147483647L)
+    return at(cl, cl.tok[ti], "expected the edge count (an integer from 0 to 2147483647; 0 will do), found " + quoted(cl.tok[ti].text));
   const size_t per_vertex = 3 + (normals ? 3 : 0) + (colours ? 1 : 0) + (texcoords ? 2 : 0);
   size_t next = li + 1;
   for (long v = 0; v < nv; ++v, ++next) {
@@ -261,6 +288,7 @@ std::optional<FileProblem> diagnosePly(const std::string& path) {
   struct Property {
     std::string name;
     bool list = false;
+    std::string type;  // a scalar's type, or a list's item type
   };
   struct Element {
     std::string name;
@@ -299,7 +327,7 @@ std::optional<FileProblem> diagnosePly(const std::string& path) {
       for (size_t k = list ? 2 : 1; k + 1 < want; ++k)
         if (!kTypes.count(l.tok[k].text))
           return at(l, l.tok[k], "expected a PLY type (char, uchar, short, ushort, int, uint, float, double, ...), found " + quoted(l.tok[k].text));
-      elements.back().props.push_back({l.tok[want - 1].text, list});
+      elements.back().props.push_back({l.tok[want - 1].text, list, l.tok[want - 2].text});
     } else {
       return at(l, l.tok[0], "expected a header line (format, element, property, comment or end_header), found " + quoted(w));
     }
@@ -321,8 +349,7 @@ std::optional<FileProblem> diagnosePly(const std::string& path) {
       for (const Property& p : e.props) {
         if (t >= l.tok.size()) return pastEnd(l, what + ": expected a value for '" + p.name + "'");
         if (!p.list) {
-          if (!finiteNumber(l.tok[t].text))
-            return at(l, l.tok[t], what + ": expected a finite number for '" + p.name + "', found " + quoted(l.tok[t].text));
+          if (auto q = typed(l, l.tok[t], p.type, what + ": '" + p.name + "'")) return q;
           ++t;
           continue;
         }
@@ -334,8 +361,11 @@ std::optional<FileProblem> diagnosePly(const std::string& path) {
         if (corners && k < 3) return at(l, l.tok[t - 1], what + ": expected at least 3 corners, found " + std::to_string(k));
         if (corners) {
           if (auto q = indices(l, t, k, nvertex, what)) return q;
-        } else if (auto q = numbers(l, t, size_t(k), what + " '" + p.name + "'")) {
-          return q;
+        } else {
+          for (size_t i = t; i < t + size_t(k); ++i) {
+            if (i >= l.tok.size()) return pastEnd(l, what + ": expected " + std::to_string(k) + " values for '" + p.name + "'");
+            if (auto q = typed(l, l.tok[i], p.type, what + ": '" + p.name + "'")) return q;
+          }
         }
         t += size_t(k);
       }
@@ -363,6 +393,19 @@ std::optional<FileProblem> diagnoseGlb(const std::string& path) {
   if (std::memcmp(h + 16, "JSON", 4) != 0) return FileProblem{0, 0, "the first chunk is not the JSON chunk"};
   if (20 + u32(12) > size)
     return FileProblem{0, 0, "the JSON chunk declares " + std::to_string(u32(12)) + " bytes, more than the file holds"};
+  // A binary chunk after it: an 8-byte header ('BIN' and a zero byte) and its bytes within the file.
+  const uintmax_t bin = 20 + u32(12);
+  if (bin < size) {
+    unsigned char b[8] = {};
+    in.clear();
+    in.seekg(std::streamoff(bin));
+    in.read(reinterpret_cast<char*>(b), 8);
+    const uintmax_t n = uintmax_t(b[0]) | uintmax_t(b[1]) << 8 | uintmax_t(b[2]) << 16 | uintmax_t(b[3]) << 24;
+    if (bin + 8 > size) return FileProblem{0, 0, "the file ends inside the header of the chunk after the JSON"};
+    if (std::memcmp(b + 4, "BIN\0", 4) != 0) return FileProblem{0, 0, "the chunk after the JSON is not the binary chunk ('BIN')"};
+    if (bin + 8 + n > size)
+      return FileProblem{0, 0, "the binary chunk declares " + std::to_string(n) + " bytes, more than the file holds"};
+  }
   return std::nullopt;
 }
 
@@ -393,7 +436,13 @@ std::optional<FileProblem> diagnoseGltfJson(const std::string& path) {
     return FileProblem{line, col, why};
   };
   try {
-    (void)nlohmann::json::parse(text);
+    const nlohmann::json j = nlohmann::json::parse(text);
+    const auto asset = j.is_object() ? j.find("asset") : j.end();
+    const nlohmann::json* version = nullptr;
+    if (asset != j.end() && asset->is_object() && asset->contains("version")) version = &(*asset)["version"];
+    if (!version || !version->is_string() || version->get<std::string>().rfind("2.", 0) != 0)
+      return FileProblem{0, 0, std::string(glb ? "the JSON chunk: " : "") + "expected \"asset\": {\"version\": \"2.0\"}" +
+                                   (version ? ", found version " + version->dump() : ", found no asset version")};
   } catch (const nlohmann::json::parse_error& e) {
     // e.what(): "[json.exception.parse_error.101] parse error at line L, column C: WHY"
     std::string why = e.what();

@@ -637,7 +637,14 @@ TEST(LoadMesh, MalformedFilesThrowInputErrors) {
   EXPECT_NE(e.find("inf.off:5:3"), std::string::npos) << e;  // line 5, column 3
   EXPECT_NE(e.find("non-finite"), std::string::npos) << e;
   e = loadError(write("garbage.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\nx y z\n"));
-  EXPECT_NE(e.find("garbage.ply:6:1: vertex 0 (counting from 0): expected a finite number for 'x', found 'x'"),
+  EXPECT_NE(e.find("garbage.ply:6:1: vertex 0 (counting from 0): 'x': expected a number that a float holds, found 'x'"),
+            std::string::npos) << e;
+  e = loadError(write("big.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                 "property float z\nend_header\n0 0 0\n1 0 1e308\n0 1 0\n"));
+  EXPECT_NE(e.find("big.ply:9:5: vertex 1 (counting from 0): 'z': expected a number that a float holds, found '1e308'"),
+            std::string::npos) << e;
+  e = loadError(write("no_edges.off", "OFF\n3 1\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"));
+  EXPECT_NE(e.find("no_edges.off:2:4: expected the edge count after the vertex and face counts (0 will do)"),
             std::string::npos) << e;
   const std::string ply_header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                                  "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
@@ -675,6 +682,8 @@ TEST(LoadMesh, MalformedFilesThrowInputErrors) {
   // internal error, exit 1).
   e = loadError(write("overflow.gltf", "{\"asset\": {\"version\": \"2.0\"},\n \"scene\": 1e999}"));
   EXPECT_NE(e.find("overflow.gltf:2:11: invalid JSON: number overflow parsing '1e999'"), std::string::npos) << e;
+  e = loadError(write("version.gltf", "{\"asset\": {\"version\": \"\"}}"));
+  EXPECT_NE(e.find("version.gltf: expected \"asset\": {\"version\": \"2.0\"}, found version \"\""), std::string::npos) << e;
   e = loadError(write("no_accessors.gltf", "{\"asset\": {\"version\": \"2.0\"}, \"meshes\": [{\"primitives\": "
                                              "[{\"attributes\": {\"POSITION\": 0}}]}]}"));
   EXPECT_NE(e.find("no_accessors.gltf: cannot parse the glTF file: "), std::string::npos) << e;
@@ -686,6 +695,11 @@ TEST(LoadMesh, MalformedFilesThrowInputErrors) {
             std::string::npos) << e;
   e = loadError(write("magic.glb", "gLTF" + glb.substr(4)));
   EXPECT_NE(e.find("magic.glb: not a binary glTF: the file does not start with 'glTF'"), std::string::npos) << e;
+  std::string bad_bin = glb;
+  const size_t json_length = size_t(uint8_t(glb[12])) | size_t(uint8_t(glb[13])) << 8;
+  bad_bin[20 + json_length + 4] = 'b';  // the chunk type after the JSON: 'bIN'
+  e = loadError(write("bad_bin.glb", bad_bin));
+  EXPECT_NE(e.find("bad_bin.glb: the chunk after the JSON is not the binary chunk ('BIN')"), std::string::npos) << e;
   std::string bad_json = glb;
   bad_json[21] = 'x';  // the JSON chunk's second character: {x...
   e = loadError(write("bad_json.glb", bad_json));

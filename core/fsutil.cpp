@@ -1,5 +1,7 @@
 #include "core/fsutil.h"
 
+#include <cstdio>
+#include <fcntl.h>
 #include <fstream>
 #include <sstream>
 #include <unistd.h>
@@ -38,6 +40,35 @@ std::string readTextFile(const fs::path& path) {
   std::ostringstream s;
   s << f.rdbuf();
   return s.str();
+}
+
+QuietStderr::QuietStderr() {
+  std::fflush(stderr);
+  saved_ = ::dup(2);
+  const int null = ::open("/dev/null", O_WRONLY);
+  if (saved_ >= 0 && null >= 0) ::dup2(null, 2);
+  if (null >= 0) ::close(null);
+}
+
+QuietStderr::~QuietStderr() {
+  if (saved_ < 0) return;
+  std::fflush(stderr);
+  ::dup2(saved_, 2);
+  ::close(saved_);
+}
+
+std::string oneLineError(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '\r') continue;
+    if (c == '\n')
+      out += "; ";
+    else
+      out += c;
+  }
+  while (!out.empty() && (out.back() == ' ' || out.back() == ';')) out.pop_back();
+  while (!out.empty() && (out.front() == ' ' || out.front() == ';')) out.erase(out.begin());
+  return out;
 }
 
 }  // namespace dg

@@ -15,4 +15,22 @@ void writeAtomically(const std::filesystem::path& path,
 void writeTextAtomically(const std::filesystem::path& path, const std::string& text);
 std::string readTextFile(const std::filesystem::path& path);  // throws InputError if unreadable
 
+// While it lives, what is written to the standard error stream (file descriptor 2) is discarded.
+// For reading a file with a library that prints its own complaint before it returns the error we
+// report (libpng's default handler, under OpenImageIO, prints "libpng error: ..."), so that bad
+// input gives one message. Only around single-threaded reads: the descriptor is the process's.
+class QuietStderr {
+ public:
+  QuietStderr();
+  ~QuietStderr();
+  QuietStderr(const QuietStderr&) = delete;
+  QuietStderr& operator=(const QuietStderr&) = delete;
+
+ private:
+  int saved_ = -1;
+};
+
+// A library's error text as part of one line: line breaks become "; ", the ends trimmed.
+std::string oneLineError(const std::string& text);
+
 }  // namespace dg

@@ -56,9 +56,10 @@ RawImage readRaw(const std::string& path, bool asFloat) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(path, "file not found");
   if (fs::is_directory(path, ec)) throw InputError(path, "is a folder, expected an image file");
+  QuietStderr quiet;  // libpng's own complaint: the error below says it
   auto in = OIIO::ImageInput::open(path);
   if (!in) {
-    std::string err = OIIO::geterror();
+    std::string err = oneLineError(OIIO::geterror());
     throw InputError(path, "cannot read image" + (err.empty() ? std::string() : ": " + err));
   }
   const OIIO::ImageSpec& spec = in->spec();
@@ -74,7 +75,7 @@ RawImage readRaw(const std::string& path, bool asFloat) {
   r.type = asFloat ? OIIO::TypeDesc(OIIO::TypeDesc::FLOAT) : spec.format;
   r.data.resize(size_t(r.width) * r.height * r.channels * r.type.size());
   if (!in->read_image(0, 0, 0, r.channels, r.type, r.data.data())) {
-    std::string err = in->geterror();
+    std::string err = oneLineError(in->geterror());
     throw InputError(path, "cannot decode image" + (err.empty() ? std::string() : ": " + err));
   }
   in->close();
@@ -277,9 +278,10 @@ ColorImage readColorImage(const std::string& path) {
   {
     std::error_code ec;
     if (!fs::exists(path, ec)) throw InputError(path, "file not found");
+    QuietStderr quiet;
     auto in = OIIO::ImageInput::open(path);
     if (!in) {
-      std::string err = OIIO::geterror();
+      std::string err = oneLineError(OIIO::geterror());
       throw InputError(path, "cannot read image" + (err.empty() ? std::string() : ": " + err));
     }
     format = in->format_name();

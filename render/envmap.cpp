@@ -12,10 +12,12 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include "core/error.h"
+#include "core/fsutil.h"
 
 namespace dg {
 
@@ -72,9 +74,10 @@ EnvironmentMap EnvironmentMap::load(const std::string& path, float scale, float 
   if (!std::filesystem::is_regular_file(path, ec))
     throw InputError(path, "environment map not found (expected a lat-long image: EXR, HDR, PNG, "
                            "... readable by OpenImageIO)");
+  std::optional<QuietStderr> quiet(std::in_place);  // libpng's own complaint: the error below says it
   auto in = OIIO::ImageInput::open(path);
   if (!in) {
-    std::string why = OIIO::geterror();
+    std::string why = oneLineError(OIIO::geterror());
     throw InputError(path, "cannot read environment map as an image" +
                                (why.empty() ? std::string() : ": " + why));
   }
@@ -86,11 +89,12 @@ EnvironmentMap EnvironmentMap::load(const std::string& path, float scale, float 
                                " channels; expected a 2-D lat-long image at least 2 pixels wide");
   std::vector<float> buf(size_t(w) * h * nc);
   if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, buf.data())) {
-    std::string why = in->geterror();
+    std::string why = oneLineError(in->geterror());
     throw InputError(path, "cannot read the pixels of the environment map" +
                                (why.empty() ? std::string() : ": " + why));
   }
   in->close();
+  quiet.reset();
 
   // Integer formats store display-encoded (sRGB) values unless the file says it is linear;
   // floating-point formats (EXR, HDR, float TIFF) hold linear radiance.

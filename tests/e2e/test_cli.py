@@ -294,6 +294,25 @@ class BadInput(unittest.TestCase):
                 cfg = SMALL.replace("type: plate\n  width_mm: 300\n  height_mm: 200", "type: mesh\n  path: " + name)
                 self.expect_error(["generate", self.config(d, cfg), "--out", out], *expect[name], out=out)
 
+    def test_corrupt_images_give_one_message(self):
+        # A PNG with a byte of its pixel data changed: libpng, under OpenImageIO, printed its own
+        # "libpng error: IDAT: CRC error" line before our message (found by fuzzing compare).
+        d = work("bad_image")
+        data = bytearray(read_bytes(os.path.join(ARGS.source, "docs", "img", "hail_hood.png")))
+        data[len(data) // 2] ^= 0xFF
+        bad = os.path.join(d, "corrupt.png")
+        with open(bad, "wb") as f:
+            f.write(data)
+        good = os.path.join(ARGS.source, "docs", "img", "hail_hood.png")
+        out = os.path.join(d, "out")
+        p = self.expect_error(["compare", good, bad, "--out", out], "corrupt.png: cannot decode image: PNG read error",
+                              out=out, lines=2)  # the first line names the pair being compared
+        self.assertNotIn("libpng", p.stderr)
+        cfg = SMALL.replace("  - type: dome\n    radiance: [0.3, 0.3, 0.3]", "  - type: environment\n    map: corrupt.png")
+        p = self.expect_error(["generate", self.config(d, cfg), "--out", out],
+                              "corrupt.png: cannot read the pixels of the environment map: PNG read error", out=out)
+        self.assertNotIn("libpng", p.stderr)
+
     def test_a_later_samples_error_is_found_before_anything_is_written(self):
         # Every sample's scene is built before the output folder is made; the first sample is built
         # last and kept for rendering, so an error in a later one must still stop the run first.

@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -283,6 +284,22 @@ CameraIntrinsics loadCalibration(const std::string& path) {
     throw InputError(path, line, 0,
                      "cannot parse calibration file (expected OpenCV FileStorage YAML, XML or "
                      "JSON): " + what);
+  } catch (const std::exception&) {
+    // OpenCV's YAML parser throws std::length_error on a key left empty ("   : 3"); other
+    // standard exceptions from its parsers are reported the same way, without their text.
+    int line = 0;
+    std::ifstream in(path);
+    std::string l;
+    for (int n = 1; std::getline(in, l); ++n) {
+      const size_t c = l.find_first_not_of(" \t");
+      if (c != std::string::npos && l[c] == ':') {
+        line = n;
+        break;
+      }
+    }
+    throw InputError(path, line, 0,
+                     std::string("cannot parse calibration file (expected OpenCV FileStorage YAML, XML or JSON): ") +
+                         (line > 0 ? "a key is missing before ':'" : "malformed file"));
   }
   const char* kExpectK = "a 3x3 camera matrix [fx 0 cx; 0 fy cy; 0 0 1]";
   const char* kExpectD = "1x4, 1x5 (or 4x1, 5x1, ...) distortion coefficients k1 k2 p1 p2 [k3]";

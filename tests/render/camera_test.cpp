@@ -388,6 +388,16 @@ TEST_F(Calibration, Errors) {
     EXPECT_GE(e.line(), 4);  // the parser's line number is passed on
     EXPECT_LE(e.line(), 6);
   }
+  // A key left empty: OpenCV's parser threw std::length_error, which was an internal error (found
+  // by fuzzing calibration files).
+  const std::string nokey = write("nokey.yml", "%YAML:1.0\n---\nimage_width: 1280\ncamera_matrix: !!opencv-matrix\n"
+                                               "   rows: 3\n   : 3\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\n");
+  expectError(nokey, "a key is missing before ':'");
+  try {
+    loadCalibration(nokey);
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 6);
+  }
   expectError(write("noK.yml", yamlCalib("", kD, kSize)), "camera_matrix");
   expectError(write("noD.yml", yamlCalib(kK, "", kSize)), "distortion_coefficients");
   expectError(write("noW.yml", yamlCalib(kK, kD, "image_height: 960\n")), "image_width");

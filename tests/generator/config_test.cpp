@@ -33,6 +33,16 @@ std::string errorOf(const std::string& yaml) {
 
 }  // namespace
 
+// A bad file's bytes quoted in a message: a NUL used to end the message early (what() is a C
+// string), a newline or vertical tab to break it. They are shown as '?' (found by fuzzing compare's
+// --pairs CSV).
+TEST(InputError, ControlCharactersInTheMessageAreShownAsQuestionMarks) {
+  const char raw[] = "unknown column '\0\n\x0b\x7f' in the header";
+  const InputError e("pairs.csv", 1, 0, std::string(raw, sizeof raw - 1));
+  EXPECT_STREQ(e.what(), "pairs.csv:1: unknown column '????' in the header");
+  EXPECT_EQ(InputError("a.obj", "caf\xc3\xa9").what(), std::string("a.obj: caf\xc3\xa9"));  // UTF-8 is kept
+}
+
 TEST(Config, MinimalConfigGetsEveryDefault) {
   Config c = parseConfig(kMinimal, "test.yaml");
   EXPECT_EQ(c.root["part"]["type"].str(), "plate");

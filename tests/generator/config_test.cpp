@@ -43,6 +43,16 @@ TEST(InputError, ControlCharactersInTheMessageAreShownAsQuestionMarks) {
   EXPECT_EQ(InputError("a.obj", "caf\xc3\xa9").what(), std::string("a.obj: caf\xc3\xa9"));  // UTF-8 is kept
 }
 
+// YAML forbids a key twice in one mapping; yaml-cpp keeps both and answers with the first, so a
+// `seed: 99` added at the end of a file that already had `seed: 7` was silently ignored.
+TEST(Config, AKeyGivenTwiceIsRefused) {
+  std::string e = errorOf(std::string(kMinimal) + "seed: 3\nseed: 4\n");
+  EXPECT_NE(e.find("test.yaml:9:1: 'seed' is given twice in one mapping (first at line 8); keep one"), std::string::npos) << e;
+  e = errorOf(std::string(kMinimal) + "defects:\n  - {type: dent, radius_mm: 5, radius_mm: 6}\n");
+  EXPECT_NE(e.find("test.yaml:9:32: 'radius_mm' is given twice"), std::string::npos) << e;
+  EXPECT_EQ(errorOf(std::string(kMinimal) + "defects:\n  - {type: dent, radius_mm: 5}\n  - {type: dent, radius_mm: 6}\n"), "");
+}
+
 TEST(Config, MinimalConfigGetsEveryDefault) {
   Config c = parseConfig(kMinimal, "test.yaml");
   EXPECT_EQ(c.root["part"]["type"].str(), "plate");

@@ -163,7 +163,23 @@ void writeSampleFiles(const fs::path& out, const Config& cfg, const Sample& s, c
   writeTextAtomically(out / "samples" / (id + ".json"), meta.dump(2) + "\n");
 }
 
-bool sampleComplete(const fs::path& out, uint64_t i) { return fs::is_regular_file(out / "samples" / (idName(i) + ".json")); }
+// A sample is complete when its JSON (written last) reads back whole and the image it names is
+// there. defectgen writes every file whole or not at all, so anything else was damaged from
+// outside: such a sample is left out of annotations.json and rendered again by --resume.
+std::optional<json> completeSample(const fs::path& out, uint64_t i) {
+  const fs::path p = out / "samples" / (idName(i) + ".json");
+  if (!fs::is_regular_file(p)) return std::nullopt;
+  try {
+    json m = json::parse(readTextFile(p));
+    const json& image = m.at("coco").at("image");
+    if (!fs::is_regular_file(out / image.at("file_name").get<std::string>())) return std::nullopt;
+    return m;
+  } catch (const std::exception&) {  // json::exception, or InputError from readTextFile
+    return std::nullopt;
+  }
+}
+
+bool sampleComplete(const fs::path& out, uint64_t i) { return completeSample(out, i).has_value(); }
 
 }  // namespace
 
@@ -171,9 +187,9 @@ void assembleAnnotations(const std::string& out_dir, int64_t count) {
   fs::path out(out_dir);
   json images = json::array(), anns = json::array();
   for (int64_t i = 0; i < count; ++i) {
-    fs::path p = out / "samples" / (idName(uint64_t(i)) + ".json");
-    if (!fs::is_regular_file(p)) continue;
-    json m = json::parse(readTextFile(p));
+    const std::optional<json> sample = completeSample(out, uint64_t(i));
+    if (!sample) continue;
+    const json& m = *sample;
     images.push_back(m["coco"]["image"]);
     for (auto& a : m["coco"]["annotations"]) anns.push_back(a);
   }
@@ -238,7 +254,11 @@ GenerateResult runGenerate(const GenerateOptions& o) {
         json m = json::parse(readTextFile(man));
         same = m.value("config_hash", "") == hash && m.value("seed", uint64_t(0)) == seed &&
                m.value("count", int64_t(-1)) == count;
-      } catch (const json::exception&) {
+      } catch (const json::exception& e) {
+        // defectgen writes it whole or not at all (renamed into place), so something else changed it.
+        throw InputError(man.string(), std::string("not a readable manifest (") + e.what() +
+                                           "), so the folder cannot be checked or resumed; remove the folder or "
+                                           "choose another --out");
       }
     }
     if (!same)

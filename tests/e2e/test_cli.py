@@ -211,6 +211,19 @@ class Generate(unittest.TestCase):
         self.assertIn("2 sample(s) rendered, 2 skipped", p.stderr)
         os.remove(os.path.join(cut, "images", ".tmp-999-000002.png"))
         assert_same_tree(self, whole, cut)
+        # Damage from outside: a sample file cut short (it was an internal error) and an image
+        # removed. Those samples are rendered again; a manifest that does not parse is named.
+        with open(os.path.join(cut, "samples", "000001.json"), "w") as f:
+            f.write("{")
+        os.remove(os.path.join(cut, "images", "000003.png"))
+        p = run("generate", cfg, "--out", cut, "--resume")
+        self.assertIn("2 sample(s) rendered, 2 skipped", p.stderr)
+        assert_same_tree(self, whole, cut)
+        with open(os.path.join(cut, "manifest.json"), "w") as f:
+            f.write("garbage")
+        p = run("generate", cfg, "--out", cut, "--resume", ok=False)
+        self.assertEqual(p.returncode, 2, p.stderr)
+        self.assertIn("manifest.json: not a readable manifest", p.stderr)
 
 
 class BadInput(unittest.TestCase):

@@ -1,5 +1,6 @@
 #include <CLI/CLI.hpp>
 
+#include <cctype>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -45,6 +46,9 @@ cv::Mat overlay(const cv::Mat& img, const cv::Mat& sem, const cv::Mat& inst) {
 }
 
 void makeContactSheet(const std::string& dir, const std::string& out_png, int columns, int thumb) {
+  std::string ext = fs::path(out_png).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".png") throw InputError(out_png, "--out: expected a file name ending in .png");
   fs::path d(dir);
   if (!fs::is_directory(d / "images")) throw InputError(dir, "not a defectgen dataset folder (no images/)");
   std::vector<fs::path> images;
@@ -83,8 +87,15 @@ void makeContactSheet(const std::string& dir, const std::string& out_png, int co
     int r = int(i) / columns, c = int(i) % columns;
     tiles[i].copyTo(sheet(cv::Rect(c * (thumb + 2) + 1, r * (th + 2) + 1, tiles[i].cols, tiles[i].rows)));
   }
+  // The folder of --out is made if missing, as generate and compare make theirs.
+  std::error_code ec;
+  const fs::path folder = fs::path(out_png).parent_path();
+  if (!folder.empty()) fs::create_directories(folder, ec);
+  if (ec || (!folder.empty() && !fs::is_directory(folder)))
+    throw InputError(out_png, "--out: cannot create its folder" + (ec ? ": " + ec.message() : std::string()));
   writeAtomically(out_png, [&](const fs::path& tmp) {
-    if (!cv::imwrite(tmp.string(), sheet)) throw std::runtime_error("cannot write " + tmp.string());
+    if (!cv::imwrite(tmp.string(), sheet))
+      throw InputError(out_png, "--out: cannot write the PNG here (a name ending in .png, in a folder you can write to)");
   });
 }
 

@@ -268,7 +268,11 @@ GenerateResult runGenerate(const GenerateOptions& o) {
       throw InputError(out.string(), "output folder already holds this dataset; pass --resume to continue it "
                                      "or remove the folder to start again");
   }
-  for (const char* sub : {"images", "masks", "samples"}) fs::create_directories(out / sub);
+  for (const char* sub : {"images", "masks", "samples"}) {
+    std::error_code ec;
+    fs::create_directories(out / sub, ec);
+    if (ec) throw InputError(out.string(), "cannot create the output folder: " + ec.message());
+  }
 
   json manifest = {{"config_file", o.config_path},
                    {"config_hash", hash},

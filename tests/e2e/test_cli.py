@@ -371,6 +371,22 @@ defects:
         self.expect_error(["generate", cfg, "--out", out, "--seed", "5000000000000000"],
                           "--seed: Value 5000000000000000 not in range 0 to 1000000000000000", out=out)
 
+    def test_output_paths_that_cannot_be_written(self):
+        # Both were internal errors (exit 1): a folder that cannot be made, and contact-sheet's PNG.
+        d = work("bad_out")
+        cfg = self.config(d, SMALL.replace("count: 4", "count: 1"), "ok.yaml")
+        self.expect_error(["generate", cfg, "--out", "/proc/defectgen_out", "--quiet"],
+                          "/proc/defectgen_out: cannot create the output folder")
+        data = os.path.join(d, "data")
+        run("generate", cfg, "--out", data, "--quiet")
+        self.expect_error(["contact-sheet", data, "--out", os.path.join(d, "sheet.txt")],
+                          "sheet.txt: --out: expected a file name ending in .png")
+        self.expect_error(["contact-sheet", data, "--out", "/proc/defectgen_out/sheet.png"],
+                          "--out: cannot create its folder")
+        sheet = os.path.join(d, "new", "folder", "sheet.png")  # made if missing
+        run("contact-sheet", data, "--out", sheet)
+        self.assertTrue(os.path.isfile(sheet))
+
     def test_foreign_output_folder_is_refused(self):
         d = work("foreign")
         out = os.path.join(d, "out")

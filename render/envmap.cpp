@@ -12,6 +12,7 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <new>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -87,7 +88,17 @@ EnvironmentMap EnvironmentMap::load(const std::string& path, float scale, float 
     throw InputError(path, "environment map is " + std::to_string(w) + "x" + std::to_string(h) +
                                " with " + std::to_string(nc) +
                                " channels; expected a 2-D lat-long image at least 2 pixels wide");
-  std::vector<float> buf(size_t(w) * h * nc);
+  // A header can declare any size; a lat-long map past 32768 x 16384 is refused, not allocated.
+  if (int64_t(w) * h > int64_t(32768) * 16384)
+    throw InputError(path, "environment map is " + std::to_string(w) + "x" + std::to_string(h) +
+                               "; the largest taken is 32768x16384 pixels");
+  std::vector<float> buf;
+  try {
+    buf.resize(size_t(w) * h * nc);
+  } catch (const std::bad_alloc&) {
+    throw InputError(path, "environment map is " + std::to_string(w) + "x" + std::to_string(h) + " with " +
+                               std::to_string(nc) + " channels, more than this machine's memory holds as floats");
+  }
   if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, buf.data())) {
     std::string why = oneLineError(in->geterror());
     throw InputError(path, "cannot read the pixels of the environment map" +

@@ -289,6 +289,28 @@ TEST_F(EnvMap, BadFilesThrowInputError) {
   px[13].y = -0.5f;
   expectInputError(writeRgb("neg.exr", 8, 4, px), "negative");
   expectInputError(writeRgb("narrow.exr", 1, 4, std::vector<Rgb>(4, Rgb(1.0f))), "2 pixels wide");
+  // A PNG whose header declares 60000 x 60000 pixels (and holds a few): allocating 43 GB of floats
+  // for it was an internal error, std::bad_alloc.
+  auto crc = [](const std::string& bytes) {
+    uint32_t c = 0xFFFFFFFFu;
+    for (unsigned char b : bytes) {
+      c ^= b;
+      for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+    }
+    return c ^ 0xFFFFFFFFu;
+  };
+  auto be32 = [](uint32_t v) {
+    return std::string{char(v >> 24), char(v >> 16), char(v >> 8), char(v)};
+  };
+  auto chunk = [&](const std::string& type, const std::string& data) {
+    return be32(uint32_t(data.size())) + type + data + be32(crc(type + data));
+  };
+  const std::string ihdr = be32(60000) + be32(60000) + std::string("\x08\x02\x00\x00\x00", 5);
+  const std::string idat("\x78\x9c\x63\x00\x00\x00\x01\x00\x01", 9);  // zlib of one 0 byte
+  const std::string huge = (dir_ / "huge.png").string();
+  std::ofstream(huge, std::ios::binary) << std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", ihdr) +
+                                               chunk("IDAT", idat) + chunk("IEND", "");
+  expectInputError(huge, "60000x60000; the largest taken is 32768x16384 pixels");
 }
 
 TEST_F(EnvMap, BlackMapCannotBeSampled) {

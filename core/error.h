@@ -7,6 +7,14 @@
 
 namespace dg {
 
+// A message as one whole line: control characters that a bad file's bytes bring into it (a NUL
+// would end it early, a newline or vertical tab break it) are shown as '?'. UTF-8 is kept.
+inline std::string withoutControlCharacters(std::string s) {
+  for (char& ch : s)
+    if ((ch >= 0 && ch < 32) || ch == 127) ch = '?';
+  return s;
+}
+
 class InputError : public std::runtime_error {
  public:
   // line and column are 1-based; 0 means "no position".
@@ -19,15 +27,10 @@ class InputError : public std::runtime_error {
   int column() const { return column_; }
 
  private:
-  // Control characters that a bad file's bytes bring into the message (a NUL would end it early, a
-  // newline or vertical tab break it) are shown as '?': the message stays whole and on one line.
   static std::string format(const std::string& f, int l, int c, const std::string& w) {
     std::string s = f;
     if (l > 0) s += ":" + std::to_string(l) + (c > 0 ? ":" + std::to_string(c) : "");
-    s = (s.empty() ? std::string() : s + ": ") + w;
-    for (char& ch : s)
-      if ((ch >= 0 && ch < 32) || ch == 127) ch = '?';
-    return s;
+    return withoutControlCharacters((s.empty() ? std::string() : s + ": ") + w);
   }
   std::string file_;
   int line_, column_;

@@ -15,13 +15,6 @@
 #include "generator/runner.h"
 
 namespace {
-// A message as one line: control characters that a bad file's bytes bring into it (a quoted token,
-// a vertical tab or a newline) are shown as '?', so that an error stays one line on any terminal.
-std::string oneLine(std::string s) {
-  for (char& c : s)
-    if ((c >= 0 && c < 32) || c == 127) c = '?';
-  return s;
-}
 // A number in [lo, hi], NaN and infinities refused (CLI::Range lets NaN through: no comparison
 // with it is true), with the bounds written as the docs write them.
 CLI::Validator finiteRange(double lo, double hi) {
@@ -47,7 +40,7 @@ int main(int argc, char** argv) {
   CLI::App app{"defectgen: labeled synthetic images of car-part defects (scratches, dents, rust, patina)"};
   // A flag error is one line like every other bad input: "defectgen: error: <what> (see --help)".
   app.failure_message([](const CLI::App*, const CLI::Error& e) {
-    return "defectgen: error: " + oneLine(e.what()) + " (see --help)\n";
+    return "defectgen: error: " + withoutControlCharacters(e.what()) + " (see --help)\n";
   });
   app.require_subcommand(0, 1);
   bool show_version = false;
@@ -117,7 +110,7 @@ int main(int argc, char** argv) {
       std::vector<InputError> errors;
       Config c = loadConfigAllErrors(validate_path, errors);
       if (!errors.empty()) {
-        for (const InputError& e : errors) std::fprintf(stderr, "defectgen: error: %s\n", oneLine(e.what()).c_str());
+        for (const InputError& e : errors) std::fprintf(stderr, "defectgen: error: %s\n", e.what());  // InputError: already one line
         std::fprintf(stderr, "defectgen: %zu error(s) in %s\n", errors.size(), validate_path.c_str());
         return kExitInputError;
       }
@@ -134,10 +127,10 @@ int main(int argc, char** argv) {
       return 0;
     }
   } catch (const InputError& e) {
-    std::fprintf(stderr, "defectgen: error: %s\n", oneLine(e.what()).c_str());
+    std::fprintf(stderr, "defectgen: error: %s\n", e.what());  // InputError: already one line
     return kExitInputError;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "defectgen: internal error: %s\n", oneLine(e.what()).c_str());
+    std::fprintf(stderr, "defectgen: internal error: %s\n", withoutControlCharacters(e.what()).c_str());
     return 1;
   }
   return 0;

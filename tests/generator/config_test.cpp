@@ -39,7 +39,7 @@ std::string errorOf(const std::string& yaml) {
 TEST(InputError, ControlCharactersInTheMessageAreShownAsQuestionMarks) {
   const char raw[] = "unknown column '\0\n\x0b\x7f' in the header";
   const InputError e("pairs.csv", 1, 0, std::string(raw, sizeof raw - 1));
-  EXPECT_STREQ(e.what(), "pairs.csv:1: unknown column '????' in the header");
+  EXPECT_STREQ(e.what(), "pairs.csv:1: unknown column '\?\?\?\?' in the header");
   EXPECT_EQ(InputError("a.obj", "caf\xc3\xa9").what(), std::string("a.obj: caf\xc3\xa9"));  // UTF-8 is kept
 }
 

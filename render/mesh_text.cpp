@@ -88,6 +88,11 @@ std::string quoted(const std::string& s) {
   return q + (s.size() > 40 ? "...'" : "'");
 }
 
+// A little-endian 32-bit count (STL's facet count, GLB's header and chunk lengths).
+uintmax_t le32(const unsigned char* p) {
+  return uintmax_t(p[0]) | uintmax_t(p[1]) << 8 | uintmax_t(p[2]) << 16 | uintmax_t(p[3]) << 24;
+}
+
 FileProblem at(const DataLine& l, const Tok& t, const std::string& what) { return {l.number, t.column, what}; }
 FileProblem pastEnd(const DataLine& l, const std::string& what) { return {l.number, l.end, what}; }
 
@@ -231,7 +236,7 @@ std::optional<FileProblem> diagnoseStl(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
     in.seekg(80);
     in.read(reinterpret_cast<char*>(c), 4);
-    const uintmax_t n = c[0] | (c[1] << 8) | (c[2] << 16) | (uintmax_t(c[3]) << 24);
+    const uintmax_t n = le32(c);
     if (size != 84 + 50 * n)
       return FileProblem{0, 0, "a binary STL declaring " + std::to_string(n) + " facets is " + std::to_string(84 + 50 * n) +
                                    " bytes long, the file has " + std::to_string(size) + " (truncated, or not an STL file)"};
@@ -382,7 +387,7 @@ std::optional<FileProblem> diagnoseGlb(const std::string& path) {
   unsigned char h[20] = {};
   std::ifstream in(path, std::ios::binary);
   in.read(reinterpret_cast<char*>(h), 20);
-  auto u32 = [&](int at) { return uintmax_t(h[at]) | uintmax_t(h[at + 1]) << 8 | uintmax_t(h[at + 2]) << 16 | uintmax_t(h[at + 3]) << 24; };
+  auto u32 = [&](int at) { return le32(h + at); };
   if (size < 12) return FileProblem{0, 0, "a binary glTF starts with a 12-byte header; the file has " + std::to_string(size) + " bytes"};
   if (std::memcmp(h, "glTF", 4) != 0) return FileProblem{0, 0, "not a binary glTF: the file does not start with 'glTF'"};
   if (u32(4) != 2) return FileProblem{0, 0, "binary glTF version " + std::to_string(u32(4)) + "; expected 2"};
@@ -400,7 +405,7 @@ std::optional<FileProblem> diagnoseGlb(const std::string& path) {
     in.clear();
     in.seekg(std::streamoff(bin));
     in.read(reinterpret_cast<char*>(b), 8);
-    const uintmax_t n = uintmax_t(b[0]) | uintmax_t(b[1]) << 8 | uintmax_t(b[2]) << 16 | uintmax_t(b[3]) << 24;
+    const uintmax_t n = le32(b);
     if (bin + 8 > size) return FileProblem{0, 0, "the file ends inside the header of the chunk after the JSON"};
     if (std::memcmp(b + 4, "BIN\0", 4) != 0) return FileProblem{0, 0, "the chunk after the JSON is not the binary chunk ('BIN')"};
     if (bin + 8 + n > size)
@@ -415,7 +420,7 @@ std::optional<FileProblem> diagnoseGltfJson(const std::string& path) {
   const bool glb = text.size() >= 20 && text.compare(0, 4, "glTF") == 0;
   if (glb) {
     const auto* h = reinterpret_cast<const unsigned char*>(text.data());
-    const size_t n = size_t(h[12]) | size_t(h[13]) << 8 | size_t(h[14]) << 16 | size_t(h[15]) << 24;
+    const size_t n = size_t(le32(h + 12));
     if (20 + n > text.size()) return std::nullopt;
     text = text.substr(20, n);
   }

@@ -183,7 +183,7 @@ bool sampleComplete(const fs::path& out, uint64_t i) { return completeSample(out
 
 }  // namespace
 
-void assembleAnnotations(const std::string& out_dir, int64_t count) {
+int64_t assembleAnnotations(const std::string& out_dir, int64_t count) {
   fs::path out(out_dir);
   json images = json::array(), anns = json::array();
   for (int64_t i = 0; i < count; ++i) {
@@ -199,6 +199,7 @@ void assembleAnnotations(const std::string& out_dir, int64_t count) {
                {"images", images},
                {"annotations", anns}};
   writeTextAtomically(out / "annotations.json", coco.dump() + "\n");
+  return int64_t(images.size());
 }
 
 GenerateResult runGenerate(const GenerateOptions& o) {
@@ -314,11 +315,8 @@ GenerateResult runGenerate(const GenerateOptions& o) {
     ++res.rendered;
     prog.done(i, secondsSince(t0));
   }
-  assembleAnnotations(out.string(), count);
+  manifest["samples_complete"] = assembleAnnotations(out.string(), count);
   res.seconds = secondsSince(t_start);
-  int complete = 0;
-  for (int64_t i = 0; i < count; ++i) complete += sampleComplete(out, uint64_t(i));
-  manifest["samples_complete"] = complete;
   rusage ru{};
   getrusage(RUSAGE_SELF, &ru);
   manifest["last_run"] = {{"shard", std::to_string(o.shard_index) + "/" + std::to_string(o.shard_count)},

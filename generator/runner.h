@@ -32,7 +32,8 @@ GenerateResult runGenerate(const GenerateOptions& opts);
 
 // Rebuilds annotations.json from the complete samples in a dataset folder (used at the end of
 // every run, so shards that write into one folder end with the whole dataset's annotations).
-void assembleAnnotations(const std::string& out_dir, int64_t count);
+// Returns how many complete samples it holds.
+int64_t assembleAnnotations(const std::string& out_dir, int64_t count);
 
 // Versions of defectgen and of every library it links, for manifest.json and --version.
 nlohmann::json libraryVersions();

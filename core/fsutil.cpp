@@ -1,5 +1,6 @@
 #include "core/fsutil.h"
 
+#include <cctype>
 #include <cstdio>
 #include <fcntl.h>
 #include <fstream>
@@ -40,6 +41,12 @@ std::string readTextFile(const fs::path& path) {
   std::ostringstream s;
   s << f.rdbuf();
   return s.str();
+}
+
+std::string lowerExtension(const fs::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
 }
 
 QuietStderr::QuietStderr() {

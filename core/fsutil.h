@@ -15,6 +15,9 @@ void writeAtomically(const std::filesystem::path& path,
 void writeTextAtomically(const std::filesystem::path& path, const std::string& text);
 std::string readTextFile(const std::filesystem::path& path);  // throws InputError if unreadable
 
+// A file name's extension in lower case, with its dot (".png"); "" if it has none.
+std::string lowerExtension(const std::filesystem::path& path);
+
 // While it lives, what is written to the standard error stream (file descriptor 2) is discarded.
 // For reading a file with a library that prints its own complaint before it returns the error we
 // report (libpng's default handler, under OpenImageIO, prints "libpng error: ..."), so that bad

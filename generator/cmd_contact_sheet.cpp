@@ -1,6 +1,5 @@
 #include <CLI/CLI.hpp>
 
-#include <cctype>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -46,9 +45,7 @@ cv::Mat overlay(const cv::Mat& img, const cv::Mat& sem, const cv::Mat& inst) {
 }
 
 void makeContactSheet(const std::string& dir, const std::string& out_png, int columns, int thumb) {
-  std::string ext = fs::path(out_png).extension().string();
-  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  if (ext != ".png") throw InputError(out_png, "--out: expected a file name ending in .png");
+  if (lowerExtension(out_png) != ".png") throw InputError(out_png, "--out: expected a file name ending in .png");
   fs::path d(dir);
   if (!fs::is_directory(d / "images")) throw InputError(dir, "not a defectgen dataset folder (no images/)");
   std::vector<fs::path> images;

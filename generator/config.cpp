@@ -1,6 +1,5 @@
 #include "generator/config.h"
 
-#include <map>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -1002,8 +1001,7 @@ Config parseConfig(const std::string& text, const std::string& file, std::vector
   // glTF 2.0 defines its unit as the metre, so its default scale to mm is 1000.
   Value& part = c.root.members.at("part");
   if (part["type"].str() == "mesh" && part["unit_scale_to_mm"].defaulted) {
-    std::string ext = std::filesystem::path(part["path"].str()).extension().string();
-    for (auto& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    const std::string ext = lowerExtension(part["path"].str());
     if (ext == ".gltf" || ext == ".glb") part.members.at("unit_scale_to_mm").dist.constant = 1000.0;
   }
   return c;

@@ -43,6 +43,7 @@
 #include <assimp/scene.h>
 
 #include "core/error.h"
+#include "core/fsutil.h"
 #include "render/mesh_text.h"
 
 namespace dg {
@@ -65,11 +66,6 @@ struct RawMesh {
   std::vector<std::array<uint32_t, 3>> tris;
   std::vector<int> posLine;  // OBJ: the line each position was defined on (for messages)
 };
-
-std::string lower(std::string s) {
-  for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
 
 std::string fmt(double v) {
   std::ostringstream s;
@@ -392,7 +388,7 @@ void collectNode(const aiScene* scene, const aiNode* node, const aiMatrix4x4& pa
     collectNode(scene, node->mChildren[c], m, raw, uvMissing, nMissing);
 }
 
-RawMesh readGltf(const std::string& path) {
+RawMesh readGltf(const std::string& path, const std::string& ext) {
   Assimp::Importer importer;
   const aiScene* scene = nullptr;
   try {
@@ -402,7 +398,7 @@ RawMesh readGltf(const std::string& path) {
     throw InputError(path, std::string("cannot parse the glTF file: ") + e.what());
   }
   if (!scene || !scene->mRootNode || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE)) {
-    if (lower(fs::path(path).extension().string()) == ".glb")
+    if (ext == ".glb")
       if (auto p = meshtext::diagnoseGlb(path)) throw InputError(path, p->what);
     if (auto p = meshtext::diagnoseGltfJson(path)) throw InputError(path, p->line, p->column, p->what);
     const std::string why = importer.GetErrorString();
@@ -749,7 +745,7 @@ TriangleMesh finish(const std::string& path, RawMesh& raw, const MeshLoadOptions
 }  // namespace
 
 TriangleMesh loadMesh(const std::string& path, const MeshLoadOptions& opts) {
-  const std::string ext = lower(fs::path(path).extension().string());
+  const std::string ext = lowerExtension(path);
   if (ext != ".obj" && ext != ".ply" && ext != ".stl" && ext != ".off" && ext != ".gltf" && ext != ".glb")
     throw InputError(path, "unsupported mesh file extension '" + fs::path(path).extension().string() +
                                "'; supported: " + kSupported);
@@ -765,7 +761,7 @@ TriangleMesh loadMesh(const std::string& path, const MeshLoadOptions& opts) {
   if (ext == ".obj")
     raw = readObj(path);
   else if (ext == ".gltf" || ext == ".glb")
-    raw = readGltf(path);
+    raw = readGltf(path, ext);
   else
     raw = readWithCgal(path, ext);
   return finish(path, raw, opts);

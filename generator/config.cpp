@@ -268,7 +268,7 @@ Field buildSchema() {
   ren.default_value = json::object();
   ren.doc = "Image size, sampling and which outputs are written. Nothing that is not asked for is computed.";
   ren.fields = {
-      vec("resolution", 2, "px", {512, 512}, 8, 16384, "[width, height].", false, FieldType::Integer),
+      vec("resolution", 2, "px", {512, 512}, 8, 16384, "[width, height]. Refused when the frame and its outputs cannot fit in the memory the process may use (docs/output.md, \"Memory\").", false, FieldType::Integer),
       integer("spp", "samples/pixel", 16, 1, 65536, "Path samples per pixel."),
       integer("max_bounces", "", 4, 1, 64, "Maximum path length in surface bounces."),
       integer("noise_seed", "", 0, 0, 2147483647,

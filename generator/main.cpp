@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/error.h"
+#include "core/memory.h"
 #include "core/version.h"
 #include "generator/commands.h"
 #include "generator/config.h"
@@ -128,6 +129,14 @@ int main(int argc, char** argv) {
     }
   } catch (const InputError& e) {
     std::fprintf(stderr, "defectgen: error: %s\n", e.what());  // InputError: already one line
+    return kExitInputError;
+  } catch (const std::bad_alloc&) {
+    // Not a bug but a request larger than the machine: generate checks its frame beforehand
+    // (core/memory.h) and names the sample it was on; anything else that runs out ends here.
+    const MemoryLimit lim = memoryLimit();
+    const std::string cmd = app.get_subcommands().empty() ? "defectgen" : app.get_subcommands().front()->get_name();
+    std::fprintf(stderr, "defectgen: error: %s ran out of memory (%s: %s)\n", cmd.c_str(), lim.source.c_str(),
+                 formatBytes(lim.total).c_str());
     return kExitInputError;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "defectgen: internal error: %s\n", withoutControlCharacters(e.what()).c_str());

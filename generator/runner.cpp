@@ -11,11 +11,13 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <new>
 #include <optional>
 #include <sstream>
 
 #include "core/error.h"
 #include "core/fsutil.h"
+#include "core/memory.h"
 #include "core/parallel.h"
 #include "core/rng.h"
 #include "generator/scene_builder.h"
@@ -46,8 +48,13 @@ void applyOverrides(Config& c, const GenerateOptions& o) {
   Value& r = c.root.members.at("render");
   if (o.spp) r.members.at("spp").dist.constant = *o.spp;
   if (o.scale) {
-    for (auto& it : r.members.at("resolution").items)
-      it.dist.constant = int64_t(std::max(8.0, std::round(it.num() * *o.scale)));
+    for (auto& it : r.members.at("resolution").items) {
+      const double v = std::max(8.0, std::round(it.num() * *o.scale));
+      if (v > 16384)
+        throw InputError("--scale", "scales " + c.file + "'s render.resolution to " + std::to_string(int64_t(v)) +
+                                        " pixels, past the largest, 16384");
+      it.dist.constant = int64_t(v);
+    }
     Value& cam = c.root.members.at("camera");
     if (cam.has("intrinsics"))
       for (auto& it : cam.members.at("intrinsics").items) {
@@ -57,6 +64,51 @@ void applyOverrides(Config& c, const GenerateOptions& o) {
                it.dist.lo *= *o.scale; it.dist.hi *= *o.scale; }
       }
   }
+}
+
+// Bytes per pixel at a sample's peak: the frame that render() fills (RenderFrame), and on top of
+// it the dearest of writeSampleFiles' steps. Checked against the peak RSS by the e2e test
+// test_frame_memory_estimate_follows_the_peak (4096 x 4096 with RGB, masks and EXR: 48 bytes per
+// pixel estimated, 47.5 measured).
+uint64_t peakBytesPerPixel(const Value& r) {
+  const bool exr = r["exr"].flag(), masks = r["masks"].flag();
+  const std::string png = r["png"].str();
+  const bool rgb = png != "none" || exr, depth = exr && r["depth"].flag(), normals = exr && r["normals"].flag();
+  uint64_t frame = (rgb ? 12 : 0) + (depth ? 4 : 0) + (normals ? 12 : 0) + (masks ? 6 : 0);
+  // The exposed copy of the RGB, held through all the writing.
+  if (rgb && r["exposure_stops"].num() != 0) frame += 12;
+  // The PNG: its 8- or 16-bit image and the encoded bytes, at most as many.
+  uint64_t png_step = png == "8" ? 6 : png == "16" ? 12 : 0;
+  // The masks: instance ids (kept to the end), the semantic mask, the encoded files, the image's
+  // L* for the contrast figures, and the per-instance lists of L* values (one double per masked
+  // pixel at most).
+  uint64_t mask_step = masks ? 2 + 1 + 2 + (rgb ? 16 : 0) : 0;
+  // The EXR: coverage and instance as floats, and every channel interleaved as floats.
+  uint64_t exr_step = exr ? (masks ? 2 + 8 : 0) + 4 * ((rgb ? 3 : 0) + (depth ? 1 : 0) + (normals ? 3 : 0) +
+                                                     (masks ? 2 : 0))
+                          : 0;
+  return frame + std::max({png_step, mask_step, exr_step});
+}
+
+// Refuses a resolution whose frame cannot fit in the memory this process may use, before anything
+// is written: past it a render ends in std::bad_alloc or, with Linux's overcommit, is killed by the
+// kernel without a message. Returns the estimate.
+uint64_t checkFrameMemory(const Config& cfg) {
+  const Value& r = cfg.root["render"];
+  const Value& res = r["resolution"];
+  const uint64_t w = uint64_t(res.items[0].num()), h = uint64_t(res.items[1].num());
+  const uint64_t per_px = peakBytesPerPixel(r);
+  // 200 MiB for the process itself: its libraries, the part and the defects' tables.
+  const uint64_t need = w * h * per_px + (200ull << 20);
+  const MemoryLimit lim = memoryLimit();
+  if (need > lim.bytes)
+    throw InputError(cfg.file, res.line, res.column,
+                     "'render.resolution': " + std::to_string(w) + " x " + std::to_string(h) + " needs about " +
+                         formatBytes(need) + " (" + std::to_string(per_px) +
+                         " bytes per pixel for the image, masks and outputs asked for), more than the " +
+                         formatBytes(lim.bytes) + " this process may use (" + lim.source +
+                         "); lower the resolution or the outputs");
+  return need;
 }
 
 class Progress {
@@ -209,6 +261,7 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   // 1. Everything that can be wrong with the input is checked before the output folder is touched.
   Config cfg = loadConfig(o.config_path);
   applyOverrides(cfg, o);
+  const uint64_t frame_need = checkFrameMemory(cfg);
   // --threads holds for all the work from here on: the part's setup and the samples' scenes (a
   // cut or displaced mesh and its BVH) as well as the rendering.
   ThreadLimit limit(o.threads);
@@ -300,17 +353,27 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   for (uint64_t i : todo) {
     auto t0 = Clock::now();
     const bool was_kept = kept && i == mine.front();
-    Sample s = was_kept ? std::move(*kept) : makeSample(ds, seed, i);
-    kept.reset();
-    RenderFrame f = render(s.scene, s.settings);
-    double rs = secondsSince(t0) + (was_kept ? kept_build_s : 0.0);
-    render_total += rs;
-    json t = {{"index", i}, {"render_s", rs}, {"rays", f.stats.rays}};
-    if (f.stats.groove_sections + f.stats.groove_polygons + f.stats.groove_fallbacks > 0)
-      t["groove_footprints"] = {{"sections", f.stats.groove_sections},
-                                {"polygons", f.stats.groove_polygons},
-                                {"fallbacks", f.stats.groove_fallbacks}};
-    writeSampleFiles(out, ds.config, s, f, t);
+    json t;
+    try {
+      Sample s = was_kept ? std::move(*kept) : makeSample(ds, seed, i);
+      kept.reset();
+      RenderFrame f = render(s.scene, s.settings);
+      double rs = secondsSince(t0) + (was_kept ? kept_build_s : 0.0);
+      render_total += rs;
+      t = {{"index", i}, {"render_s", rs}, {"rays", f.stats.rays}};
+      if (f.stats.groove_sections + f.stats.groove_polygons + f.stats.groove_fallbacks > 0)
+        t["groove_footprints"] = {{"sections", f.stats.groove_sections},
+                                  {"polygons", f.stats.groove_polygons},
+                                  {"fallbacks", f.stats.groove_fallbacks}};
+      writeSampleFiles(out, ds.config, s, f, t);
+    } catch (const std::bad_alloc&) {
+      // Every file is written whole or not at all, so what is there is a valid part of the dataset.
+      const MemoryLimit lim = memoryLimit();
+      throw InputError(cfg.file, "ran out of memory while rendering sample " + idName(i) + " (" + lim.source +
+                                     ": " + formatBytes(lim.total) + "); the " +
+                                     std::to_string(res.rendered) +
+                                     " sample(s) written before it are kept and --resume continues the dataset");
+    }
     per_sample.push_back(t);
     ++res.rendered;
     prog.done(i, secondsSince(t0));
@@ -326,7 +389,8 @@ GenerateResult runGenerate(const GenerateOptions& o) {
                           {"timings", {{"total_s", res.seconds}, {"part_setup_s", part_s},
                                        {"render_s", render_total},
                                        {"peak_rss_mib", double(ru.ru_maxrss) / 1024.0},
-                                       {"samples", per_sample}}}};
+                                       {"samples", per_sample}}},
+                          {"memory_estimate_mib", double(frame_need) / double(1 << 20)}};
   writeTextAtomically(out / "manifest.json", manifest.dump(2) + "\n");
   if (!o.quiet)
     std::fprintf(stderr, "defectgen: %d sample(s) rendered, %d skipped, in %.1f s; dataset in %s\n", res.rendered,

@@ -20,8 +20,15 @@ import coco_reader  # noqa: E402
 ARGS = None
 
 
-def run(*args, ok=True):
-    p = subprocess.run([ARGS.binary] + list(args), capture_output=True, text=True, timeout=600)
+def run(*args, ok=True, address_space=None):
+    """address_space: bytes for RLIMIT_AS (ulimit -v), standing for a machine with that much memory."""
+    limit = None
+    if address_space:
+        import resource
+
+        def limit():
+            resource.setrlimit(resource.RLIMIT_AS, (address_space, address_space))
+    p = subprocess.run([ARGS.binary] + list(args), capture_output=True, text=True, timeout=600, preexec_fn=limit)
     if ok and p.returncode != 0:
         raise AssertionError("defectgen %s failed (%d):\n%s%s" % (" ".join(args), p.returncode, p.stdout, p.stderr))
     return p
@@ -92,6 +99,20 @@ defects:
     radius_mm: {uniform: [10, 25]}
     depth_mm: 1.0
     region: [0.2, 0.2, 0.8, 0.8]
+"""
+
+
+# Session 9's fine scratch in the explicit-geometry mode: 11 million triangles, 3.4 GB at its peak.
+C29_FINE_SCRATCH = """seed: 789568
+count: 1
+part: {type: plate, width_mm: 40, height_mm: 40}
+material: {type: plastic, base_color: [0.2, 0.2, 0.2], roughness: 0.1259}
+lights:
+  - {type: bar, length_mm: 600, width_mm: 40, distance_mm: 400, elevation_deg: 71.9588, azimuth_deg: 21.4443, radiance: [40, 40, 40]}
+camera: {fov_deg: 10.7106, position: [-41.0329, 19.005, 150], target: [0, 0, 0]}
+render: {resolution: [32, 32], spp: 1, scratches: geometry, exr: true}
+defects:
+  - {type: scratch, count: 1, pattern: path, curve: polyline, path_mm: [3.909, -5.809, -13.105, -10.565, 14.182, 11.781, 9.811, -7.225, 10.166, 8.687], orientation_deg: 12, force_kg: 1, hardness_hv: 232.0398, tool: cone, tool_apex_deg: 85.4977, tool_tilt_deg: 31.85, tool_tilt_azimuth_deg: -344.4084, pileup: 0.0979, fade_mm: 6.9574, perturbation: 0.843, center: [0.3437, 0.0437]}
 """
 
 
@@ -227,8 +248,8 @@ class Generate(unittest.TestCase):
 
 
 class BadInput(unittest.TestCase):
-    def expect_error(self, args, *fragments, out=None, lines=1):
-        p = run(*args, ok=False)
+    def expect_error(self, args, *fragments, out=None, lines=1, address_space=None):
+        p = run(*args, ok=False, address_space=address_space)
         self.assertEqual(p.returncode, 2, "exit status for %s:\n%s" % (args, p.stderr))
         for frag in fragments:
             self.assertIn(frag, p.stderr)
@@ -365,6 +386,11 @@ defects:
                           "defectgen: error: --count: Value 0 not in range 1 to 10000000 (see --help)", out=out)
         self.expect_error(["generate", cfg, "--out", out, "--bogus"],
                           "defectgen: error: The following argument was not expected: --bogus", out=out)
+        # --scale could take a resolution past the config's largest (16 x 2048 = 32768).
+        wide = self.config(d, SMALL.replace("[96, 72]", "[2048, 72]"), "wide.yaml")
+        self.expect_error(["generate", wide, "--out", out, "--scale", "16"],
+                          "--scale: scales " + wide + "'s render.resolution to 32768 pixels, past the largest, 16384",
+                          out=out)
         # NaN passed CLI11's range check; a seed past the config's range was taken.
         self.expect_error(["generate", cfg, "--out", out, "--scale", "nan"],
                           "defectgen: error: --scale: expected a number from 0.01 to 16, got nan", out=out)
@@ -386,6 +412,42 @@ defects:
         sheet = os.path.join(d, "new", "folder", "sheet.png")  # made if missing
         run("contact-sheet", data, "--out", sheet)
         self.assertTrue(os.path.isfile(sheet))
+
+    def test_what_does_not_fit_in_memory(self):
+        # ulimit -v stands for a small machine or a container's limit. Before, a frame too large
+        # was "internal error: std::bad_alloc" (exit 1) with the output folder made, and under
+        # Linux's overcommit, without a limit, the kernel would kill the process without a word.
+        d = work("memory")
+        out = os.path.join(d, "out")
+        big = self.config(d, SMALL.replace("count: 4", "count: 1").replace("[96, 72]", "[16384, 12000]"), "big.yaml")
+        self.expect_error(["generate", big, "--out", out], "big.yaml:20:15: 'render.resolution': 16384 x 12000 "
+                          "needs about", "more than the", "(ulimit -v)", out=out, address_space=3 << 30)
+        # What the frame check cannot foresee (here the scratch reference's cut mesh, which needs
+        # 3.4 GB) ends in one message too.
+        cut = self.config(d, C29_FINE_SCRATCH, "cut.yaml")
+        self.expect_error(["generate", cut, "--out", out, "--quiet"], "generate ran out of memory (ulimit -v: 1.5 GiB)",
+                          out=out, address_space=3 << 29)
+
+    def test_frame_memory_estimate_follows_the_peak(self):
+        # The estimate behind that check against the peak RSS it stands for, as the growth from
+        # 512^2 to 1536^2 pixels (which leaves the process's own share out): all outputs, and the
+        # defaults.
+        d = work("memory_estimate")
+        outputs = "exr: true\n  depth: true\n  normals: true\n  png: '16'\n  exposure_stops: 0.5\n  dither: false"
+        for name, extra in (("all", outputs), ("defaults", "exr: false")):
+            slope = {}
+            for n in (512, 1536):
+                text = SMALL.replace("count: 4", "count: 1").replace("[96, 72]", "[%d, %d]" % (n, n))
+                text = text.replace("spp: 2", "spp: 1").replace("exr: true\n  depth: true\n  normals: true", extra)
+                out = os.path.join(d, "%s_%d" % (name, n))
+                run("generate", self.config(d, text, "%s_%d.yaml" % (name, n)), "--out", out, "--quiet")
+                last = load_json(os.path.join(out, "manifest.json"))["last_run"]
+                slope[n] = (last["memory_estimate_mib"], last["timings"]["peak_rss_mib"])
+            est = (slope[1536][0] - slope[512][0]) / 2.0  # MiB per 2^20 pixels
+            rss = (slope[1536][1] - slope[512][1]) / 2.0
+            print("%s: estimate %.1f, peak RSS %.1f MiB per 2^20 pixels" % (name, est, rss))
+            self.assertGreater(est, 0.8 * rss, name)
+            self.assertLess(est, 1.25 * rss, name)
 
     def test_foreign_output_folder_is_refused(self):
         d = work("foreign")

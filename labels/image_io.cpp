@@ -162,17 +162,10 @@ void writeExr(const std::string& path, int width, int height, const std::vector<
   }
   if (names.empty()) throw std::logic_error("writeExr: no layers");
 
-  // All layers interleaved into one scanline part.
+  // All layers interleaved into one scanline part, a band of rows at a time: a copy of the whole
+  // image would add 4 bytes per pixel and channel to the peak of a large frame (docs/output.md,
+  // "Memory"). 64 rows: a multiple of the 16 that zip compresses together.
   const size_t nch = names.size();
-  std::vector<float> buf(size_t(width) * height * nch);
-  size_t base = 0;
-  for (const ExrLayer& l : layers) {
-    const size_t lc = l.channel_suffixes.size();
-    for (size_t p = 0; p < size_t(width) * height; ++p)
-      for (size_t c = 0; c < lc; ++c) buf[p * nch + base + c] = l.image->data[p * lc + c];
-    base += lc;
-  }
-
   OIIO::ImageSpec spec(width, height, int(nch), OIIO::TypeDesc::FLOAT);
   spec.channelnames = names;
   spec.alpha_channel = -1;
@@ -184,7 +177,22 @@ void writeExr(const std::string& path, int width, int height, const std::vector<
   if (!out) throw std::runtime_error("cannot create EXR writer for " + path + ": " + OIIO::geterror());
   if (!out->open(path, spec))
     throw std::runtime_error("cannot open " + path + " for writing: " + out->geterror());
-  bool ok = out->write_image(OIIO::TypeDesc::FLOAT, buf.data());
+  constexpr int kBand = 64;
+  std::vector<float> buf(size_t(width) * size_t(std::min(kBand, height)) * nch);
+  bool ok = true;
+  for (int y0 = 0; y0 < height && ok; y0 += kBand) {
+    const int y1 = std::min(height, y0 + kBand);
+    const size_t first = size_t(y0) * size_t(width), n = size_t(y1 - y0) * size_t(width);
+    size_t base = 0;
+    for (const ExrLayer& l : layers) {
+      const size_t lc = l.channel_suffixes.size();
+      const float* src = l.image->data.data() + first * lc;
+      for (size_t p = 0; p < n; ++p)
+        for (size_t c = 0; c < lc; ++c) buf[p * nch + base + c] = src[p * lc + c];
+      base += lc;
+    }
+    ok = out->write_scanlines(y0, y1, 0, OIIO::TypeDesc::FLOAT, buf.data());
+  }
   std::string err = ok ? std::string() : out->geterror();
   if (!out->close() && ok) {
     ok = false;

@@ -256,21 +256,29 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
   // under a grazing light the apex is cut low and the shadow behind it comes out short (measured:
   // 4% too much light in a lit wall's pixels at cell = width / 32 under a 12 degree bar light,
   // converging only as the cell shrinks).
-  // Each block's triangles, three vertices each; with count_only just how many vertices.
+  // Each block's triangles: vertices and indices local to the block (a piece's fan of triangles
+  // shares its polygon's vertices, which saves a third of the vertices or more); with count_only
+  // just how many triangles.
   struct Soup {
     bool count_only = false;
-    size_t vertices = 0;
+    size_t triangles = 0;
     size_t capped = 0;  // cells (per part triangle) that reached the cap of pieces
     std::vector<Vec3f> positions, normals;
     std::vector<Vec2f> uvs;
     std::vector<float> heights;
-    void add(Vec3f p, Vec2f uv, Vec3f n, float h) {
-      ++vertices;
-      if (count_only) return;
+    std::vector<uint32_t> indices;
+    uint32_t vertex(Vec3f p, Vec2f uv, Vec3f n, float h) {
+      if (count_only) return 0;
       positions.push_back(p);
       uvs.push_back(uv);
       normals.push_back(n);
       heights.push_back(h);
+      return uint32_t(positions.size() - 1);
+    }
+    void triangle(uint32_t a, uint32_t b, uint32_t c) {
+      ++triangles;
+      if (count_only) return;
+      indices.insert(indices.end(), {a, b, c});
     }
   };
   const size_t block = 1024;
@@ -292,6 +300,8 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
     std::vector<std::vector<char>> kinks;  // per scratch in `near`: which profile vertices' kinks cut the cell
     std::vector<uint32_t> tris;
     std::vector<std::vector<Vtx>> polys, next;
+    constexpr uint32_t kNoVertex = ~uint32_t(0);
+    std::vector<uint32_t> shared;  // per vertex of the piece being written: its index in the block
     const float far = 4.0f * float(std::max(du, dv));
     auto eval = [&](Vec2d q, size_t reserve) {
       std::vector<double> f;
@@ -527,9 +537,9 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
                   g = -g;
                 }
                 const Vec3f nf(g / length(g));
-                for (auto [pp, uu, hh] : {std::tuple{p0, u0, h0}, std::tuple{p1, u1, h1}, std::tuple{p2, u2, h2}}) {
-                  out.add(Vec3f(pp), uu, nf, float(hh));
-                }
+                const uint32_t a = out.vertex(Vec3f(p0), u0, nf, float(h0));
+                const uint32_t b = out.vertex(Vec3f(p1), u1, nf, float(h1));
+                out.triangle(a, b, out.vertex(Vec3f(p2), u2, nf, float(h2)));
               };
               wall(A0, B0, B1, T[k], T[k1], T[k1], hv[k], hv[k1], tb);
               wall(A0, B1, A1, T[k], T[k1], T[k], hv[k], tb, ta);
@@ -543,29 +553,38 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
           if (!(length(nf) > 0)) continue;
           nf = nf / length(nf);
           if (dot(nf, pt.ng) < 0) nf = -nf;
+          // The fan's triangles share the polygon's vertices, each added when a triangle first
+          // uses it (its normal is the same in every triangle of the piece).
+          shared.assign(m, kNoVertex);
           for (size_t k = 1; k + 1 < m; ++k) {
             size_t id[3] = {0, k, k + 1};
             if (flip) std::swap(id[1], id[2]);
             const Vec3d e1 = P[id[1]] - P[id[0]], e2 = P[id[2]] - P[id[0]];
             const double ee = std::max(dot(e1, e1), dot(e2, e2));
             if (!(length(cross(e1, e2)) > 1e-10 * ee)) continue;  // degenerate sliver
-            for (size_t v : id) {
-              out.add(Vec3f(P[v]), T[v], Vec3f(normalize(turn(pt.ng, N[v], nf))), float(hv[v]));
+            uint32_t vi[3];
+            for (int j = 0; j < 3; ++j) {
+              const size_t v = id[j];
+              if (shared[v] == kNoVertex)
+                shared[v] = out.vertex(Vec3f(P[v]), T[v], Vec3f(normalize(turn(pt.ng, N[v], nf))), float(hv[v]));
+              vi[j] = shared[v];
             }
+            out.triangle(vi[0], vi[1], vi[2]);
           }
         }
       }
     }
   });
-  size_t nv = 3 * kept.size(), capped = 0;
+  size_t nt = kept.size(), nv = 3 * kept.size(), capped = 0;
   for (const Soup& sp : soups) {
-    nv += sp.vertices;
+    nt += sp.triangles;
+    nv += sp.positions.size();
     capped += sp.capped;
   }
-  if (nv / 3 > opt.max_triangles)
+  if (nt > opt.max_triangles)
     throw std::runtime_error("the scratch geometry would exceed " + std::to_string(opt.max_triangles) + " triangles");
   if (stats) {
-    stats->triangles = nv / 3;
+    stats->triangles = nt;
     stats->part_triangles_cut = cut.size();
     stats->cells_capped = capped;
     stats->cell_mm = std::max(du, dv);
@@ -587,15 +606,17 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       out.heights.push_back(0.0f);
     }
   }
+  out.indices.reserve(3 * nt);
+  for (size_t k = 0; k < 3 * kept.size(); ++k) out.indices.push_back(uint32_t(k));
   for (Soup& sp : soups) {
+    const uint32_t base = uint32_t(out.positions.size());
     out.positions.insert(out.positions.end(), sp.positions.begin(), sp.positions.end());
     out.uvs.insert(out.uvs.end(), sp.uvs.begin(), sp.uvs.end());
     out.normals.insert(out.normals.end(), sp.normals.begin(), sp.normals.end());
     out.heights.insert(out.heights.end(), sp.heights.begin(), sp.heights.end());
+    for (uint32_t i : sp.indices) out.indices.push_back(base + i);
     sp = Soup();  // free each block as it is copied
   }
-  out.indices.resize(nv);
-  for (size_t k = 0; k < nv; ++k) out.indices[k] = uint32_t(k);
   out.computeMmPerUv();
   return out;
 }

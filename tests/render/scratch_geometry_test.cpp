@@ -1,6 +1,8 @@
 // The explicit-geometry reference for scratches and the normal-map baseline.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -32,6 +34,15 @@ TEST(ScratchGeometry, VerticesFollowTheCrossSectionAndNormalsAreTheFacets) {
   EXPECT_NEAR(st.cell_mm, 0.1 / 16, 0.1 / 16);  // the automatic cell: width / 16, rounded to a power-of-2 split
   ASSERT_GT(m.triangleCount(), 500u);
   ASSERT_EQ(m.normals.size(), m.positions.size());
+  // A piece's fan of triangles shares its polygon's vertices (once three per triangle; here 2.0 per
+  // triangle), and every vertex is used.
+  std::vector<char> used(m.positions.size(), 0);
+  for (uint32_t i : m.indices) {
+    ASSERT_LT(i, m.positions.size());
+    used[i] = 1;
+  }
+  EXPECT_EQ(std::count(used.begin(), used.end(), 1), std::ptrdiff_t(m.positions.size()));
+  EXPECT_LT(double(m.positions.size()), 2.2 * double(m.triangleCount())) << m.positions.size();
   // Plate normal and the chart's offset: a vertex's height above the plate equals the profile's.
   Vec3f n0 = normalize(cross(plate.positions[plate.indices[1]] - plate.positions[plate.indices[0]],
                              plate.positions[plate.indices[2]] - plate.positions[plate.indices[0]]));
@@ -61,17 +72,17 @@ TEST(ScratchGeometry, VerticesFollowTheCrossSectionAndNormalsAreTheFacets) {
   double wall_area = 0;
   for (size_t t = 0; t < m.triangleCount(); ++t) {
     // Away from the blunt ends, where the groove's end face becomes a ramp one cell long.
-    Vec2f cu = (m.uvs[3 * t] + m.uvs[3 * t + 1] + m.uvs[3 * t + 2]) / 3.0f;
+    Vec2f cu = (m.uvs[m.indices[3 * t]] + m.uvs[m.indices[3 * t + 1]] + m.uvs[m.indices[3 * t + 2]]) / 3.0f;
     if (cu.x < 6 || cu.x > 14) continue;
-    Vec3f n = m.normals[3 * t];
-    Vec3f g = cross(m.positions[3 * t + 1] - m.positions[3 * t], m.positions[3 * t + 2] - m.positions[3 * t]);
+    Vec3f n = m.normals[m.indices[3 * t]];
+    Vec3f g = cross(m.positions[m.indices[3 * t + 1]] - m.positions[m.indices[3 * t]], m.positions[m.indices[3 * t + 2]] - m.positions[m.indices[3 * t]]);
     float ga = length(g);
     const double c = dot(n, n0);
     const bool flat = std::fabs(c - 1) < 1e-4, tilted = std::fabs(c - nz) < 1e-4;
-    ASSERT_TRUE(flat || tilted) << "triangle " << t << " normal . n0 = " << c << " uv " << m.uvs[3 * t].x << ","
-                                << m.uvs[3 * t].y << " " << m.uvs[3 * t + 1].x << "," << m.uvs[3 * t + 1].y << " "
-                                << m.uvs[3 * t + 2].x << "," << m.uvs[3 * t + 2].y << " z " << m.positions[3 * t].z
-                                << " " << m.positions[3 * t + 1].z << " " << m.positions[3 * t + 2].z;
+    ASSERT_TRUE(flat || tilted) << "triangle " << t << " normal . n0 = " << c << " uv " << m.uvs[m.indices[3 * t]].x << ","
+                                << m.uvs[m.indices[3 * t]].y << " " << m.uvs[m.indices[3 * t + 1]].x << "," << m.uvs[m.indices[3 * t + 1]].y << " "
+                                << m.uvs[m.indices[3 * t + 2]].x << "," << m.uvs[m.indices[3 * t + 2]].y << " z " << m.positions[m.indices[3 * t]].z
+                                << " " << m.positions[m.indices[3 * t + 1]].z << " " << m.positions[m.indices[3 * t + 2]].z;
     if (ga > 1e-8f) {
       EXPECT_NEAR(std::fabs(dot(g / ga, n)), 1.0, 2e-3) << "triangle " << t;
     }
@@ -104,12 +115,12 @@ TEST(ScratchGeometry, CellSizeDoesNotChangeTheSurface) {
     double a = 0;
     tilted = 0;
     for (size_t t = 0; t < m.triangleCount(); ++t) {
-      Vec3f g = cross(m.positions[3 * t + 1] - m.positions[3 * t], m.positions[3 * t + 2] - m.positions[3 * t]);
+      Vec3f g = cross(m.positions[m.indices[3 * t + 1]] - m.positions[m.indices[3 * t]], m.positions[m.indices[3 * t + 2]] - m.positions[m.indices[3 * t]]);
       a += 0.5 * length(g);
       // Facet area away from the blunt ends: centroids between 2 mm and L - 2 mm along the path.
-      Vec2f c = (m.uvs[3 * t] + m.uvs[3 * t + 1] + m.uvs[3 * t + 2]) / 3.0f;
+      Vec2f c = (m.uvs[m.indices[3 * t]] + m.uvs[m.indices[3 * t + 1]] + m.uvs[m.indices[3 * t + 2]]) / 3.0f;
       double along = ((c.x - 5.0) * 10.0 + (c.y - 6.0) * 7.0) / std::hypot(10.0, 7.0);
-      if (m.normals[3 * t].z < 0.9999f && along > 2 && along < std::hypot(10.0, 7.0) - 2) tilted += 0.5 * length(g);
+      if (m.normals[m.indices[3 * t]].z < 0.9999f && along > 2 && along < std::hypot(10.0, 7.0) - 2) tilted += 0.5 * length(g);
     }
     return a;
   };
@@ -286,15 +297,15 @@ TEST(ScratchGeometry, CurvedPartsAreCutAlongTheSurfaceNormal) {
   std::unordered_map<uint64_t, Vec3f> placed;
   size_t shared = 0, mismatched = 0;
   for (size_t t = 0; t < m.triangleCount(); ++t) {
-    Vec2f c = (m.uvs[3 * t] + m.uvs[3 * t + 1] + m.uvs[3 * t + 2]) / 3.0f;
-    Vec2f e1 = m.uvs[3 * t + 1] - m.uvs[3 * t], e2 = m.uvs[3 * t + 2] - m.uvs[3 * t];
+    Vec2f c = (m.uvs[m.indices[3 * t]] + m.uvs[m.indices[3 * t + 1]] + m.uvs[m.indices[3 * t + 2]]) / 3.0f;
+    Vec2f e1 = m.uvs[m.indices[3 * t + 1]] - m.uvs[m.indices[3 * t]], e2 = m.uvs[m.indices[3 * t + 2]] - m.uvs[m.indices[3 * t]];
     uv_area += 0.5 * std::fabs(double(e1.x) * e2.y - double(e1.y) * e2.x);
     const double len = std::hypot(b.x - a.x, b.y - a.y);
     double along = (double(c.x) - a.x) * dir.x + (double(c.y) - a.y) * dir.y;
     // Points shared by pieces are placed alike (the abrupt ends excepted: there the walls' top and
     // bottom share their UVs).
     for (int k = 0; k < 3 && along > 0.5 && along < len - 0.5; ++k) {
-      const size_t v = 3 * t + k;
+      const size_t v = m.indices[3 * t + k];
       uint64_t key;
       std::memcpy(&key, &m.uvs[v], sizeof key);
       auto [it, fresh] = placed.emplace(key, m.positions[v]);
@@ -307,15 +318,15 @@ TEST(ScratchGeometry, CurvedPartsAreCutAlongTheSurfaceNormal) {
     if (along < 2 || along > len - 2) continue;
     const double offset = -(double(c.x) - a.x) * dir.y + (double(c.y) - a.y) * dir.x;
     if (std::fabs(offset) < 0.05)
-      wall_area += 0.5 * length(cross(m.positions[3 * t + 1] - m.positions[3 * t], m.positions[3 * t + 2] - m.positions[3 * t]));
+      wall_area += 0.5 * length(cross(m.positions[m.indices[3 * t + 1]] - m.positions[m.indices[3 * t]], m.positions[m.indices[3 * t + 2]] - m.positions[m.indices[3 * t]]));
     if (t % 7 != 0) continue;  // every 7th triangle: brute-force lookups
     // Pieces a few float steps across (where a kink clips a cell's corner) take their facet from
     // heights computed in float, which is noise at that size; they are counted, not checked.
-    const double area = 0.5 * length(cross(m.positions[3 * t + 1] - m.positions[3 * t], m.positions[3 * t + 2] - m.positions[3 * t]));
+    const double area = 0.5 * length(cross(m.positions[m.indices[3 * t + 1]] - m.positions[m.indices[3 * t]], m.positions[m.indices[3 * t + 2]] - m.positions[m.indices[3 * t]]));
     const bool tiny = area < 1e-6;
     (tiny ? tiny_area : checked_area) += area;
     for (int k = 0; k < 3; ++k) {
-      const size_t v = 3 * t + k;
+      const size_t v = m.indices[3 * t + k];
       Base bs;
       ASSERT_TRUE(base(m.uvs[v], bs));
       worst_pos = std::max(worst_pos, length(Vec3d(m.positions[v]) - (bs.p + bs.n * double(s.height(m.uvs[v])))));
@@ -378,14 +389,14 @@ TEST(ScratchGeometry, JumpsBecomeWallsAndRaysHitTheHeightField) {
   // Triangles near the two spots, for brute-force intersection.
   std::vector<size_t> tris;
   for (size_t t = 0; t < m.triangleCount(); ++t) {
-    Vec2f c = (m.uvs[3 * t] + m.uvs[3 * t + 1] + m.uvs[3 * t + 2]) / 3.0f;
+    Vec2f c = (m.uvs[m.indices[3 * t]] + m.uvs[m.indices[3 * t + 1]] + m.uvs[m.indices[3 * t + 2]]) / 3.0f;
     if ((std::fabs(c.x - 2) < 0.3 && std::fabs(c.y - 2) < 0.3) || (std::fabs(c.x - 1) < 0.3 && std::fabs(c.y - 2) < 0.3))
       tris.push_back(t);
   }
   auto meshHit = [&](Vec3d o, Vec3d d) {
     double best = 1e30;
     for (size_t t : tris) {
-      Vec3d p0(m.positions[3 * t]), e1 = Vec3d(m.positions[3 * t + 1]) - p0, e2 = Vec3d(m.positions[3 * t + 2]) - p0;
+      Vec3d p0(m.positions[m.indices[3 * t]]), e1 = Vec3d(m.positions[m.indices[3 * t + 1]]) - p0, e2 = Vec3d(m.positions[m.indices[3 * t + 2]]) - p0;
       Vec3d q = cross(d, e2);
       double det = dot(e1, q);
       if (std::fabs(det) < 1e-18) continue;

@@ -116,7 +116,16 @@ int main(int argc, char** argv) {
         return kExitInputError;
       }
       std::cout << describeConfig(c);
-      std::cerr << "defectgen: " << validate_path << " is valid\n";
+      // What generate checks against the machine: told here, not refused, since a config may be
+      // validated on one machine and rendered on another.
+      const uint64_t need = frameMemoryEstimate(c);
+      const MemoryLimit lim = memoryLimit();
+      std::cerr << "defectgen: " << validate_path << " is valid; a sample needs about " << formatBytes(need)
+                << " of memory";
+      if (need > lim.bytes)
+        std::cerr << ", more than the " << formatBytes(lim.bytes) << " this process may use here (" << lim.source
+                  << "), so generate would refuse it here";
+      std::cerr << "\n";
       return 0;
     }
     if (*ref) {

@@ -88,21 +88,30 @@ uint64_t peakBytesPerPixel(const Value& r) {
   return frame + std::max({png_step, mask_step, exr_step});
 }
 
+}  // namespace
+
+uint64_t frameMemoryEstimate(const Config& cfg) {
+  const Value& r = cfg.root["render"];
+  const Value& res = r["resolution"];
+  // 200 MiB for the process itself: its libraries, the part and the defects' tables.
+  return uint64_t(res.items[0].num()) * uint64_t(res.items[1].num()) * peakBytesPerPixel(r) + (200ull << 20);
+}
+
+namespace {
+
 // Refuses a resolution whose frame cannot fit in the memory this process may use, before anything
 // is written: past it a render ends in std::bad_alloc or, with Linux's overcommit, is killed by the
 // kernel without a message. Returns the estimate.
 uint64_t checkFrameMemory(const Config& cfg) {
   const Value& r = cfg.root["render"];
   const Value& res = r["resolution"];
-  const uint64_t w = uint64_t(res.items[0].num()), h = uint64_t(res.items[1].num());
-  const uint64_t per_px = peakBytesPerPixel(r);
-  // 200 MiB for the process itself: its libraries, the part and the defects' tables.
-  const uint64_t need = w * h * per_px + (200ull << 20);
+  const uint64_t need = frameMemoryEstimate(cfg);
   const MemoryLimit lim = memoryLimit();
   if (need > lim.bytes)
     throw InputError(cfg.file, res.line, res.column,
-                     "'render.resolution': " + std::to_string(w) + " x " + std::to_string(h) + " needs about " +
-                         formatBytes(need) + " (" + std::to_string(per_px) +
+                     "'render.resolution': " + std::to_string(int64_t(res.items[0].num())) + " x " +
+                         std::to_string(int64_t(res.items[1].num())) + " needs about " + formatBytes(need) + " (" +
+                         std::to_string(peakBytesPerPixel(r)) +
                          " bytes per pixel for the image, masks and outputs asked for), more than the " +
                          formatBytes(lim.bytes) + " this process may use (" + lim.source +
                          "); lower the resolution or the outputs");

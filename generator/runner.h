@@ -30,6 +30,12 @@ struct GenerateResult {
 
 GenerateResult runGenerate(const GenerateOptions& opts);
 
+struct Config;
+// The memory a sample takes at its peak: the frame and the outputs the config asks for, at its
+// resolution, plus the process's own (docs/output.md, "Memory"). generate refuses a config whose
+// estimate is more than the process may use (core/memory.h); validate prints it.
+uint64_t frameMemoryEstimate(const Config& cfg);
+
 // Rebuilds annotations.json from the complete samples in a dataset folder (used at the end of
 // every run, so shards that write into one folder end with the whole dataset's annotations).
 // Returns how many complete samples it holds.

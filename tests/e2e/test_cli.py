@@ -422,6 +422,11 @@ defects:
         big = self.config(d, SMALL.replace("count: 4", "count: 1").replace("[96, 72]", "[16384, 12000]"), "big.yaml")
         self.expect_error(["generate", big, "--out", out], "big.yaml:20:15: 'render.resolution': 16384 x 12000 "
                           "needs about", "more than the", "(ulimit -v)", out=out, address_space=3 << 30)
+        # validate tells it, without refusing: the config may be meant for another machine.
+        p = run("validate", big, address_space=3 << 30)
+        self.assertIn("big.yaml is valid; a sample needs about 10.3 GiB of memory, more than the", p.stderr)
+        self.assertIn("so generate would refuse it here", p.stderr)
+        self.assertNotIn("refuse", run("validate", big).stderr)
         # What the frame check cannot foresee (here the scratch reference's cut mesh, which needs
         # 3.4 GB) ends in one message too.
         cut = self.config(d, C29_FINE_SCRATCH, "cut.yaml")

@@ -261,6 +261,48 @@ int64_t assembleAnnotations(const std::string& out_dir, int64_t count) {
   return int64_t(images.size());
 }
 
+namespace {
+
+// Makes the dataset folder with its manifest and subfolders in one step: they are made in a
+// temporary folder beside it, which is then renamed to it (rename(2) takes the place of a missing
+// or empty folder atomically). Shards started together into one folder then never see it without
+// its manifest, which they would refuse as someone else's (it happened to about half of the runs of
+// eight shards started together). Returns false, leaving nothing behind, where the folder could not
+// be made this way: another shard made it first, or it cannot be renamed onto (a mount point).
+bool createDatasetFolder(const fs::path& out, const std::string& manifest_text) {
+  std::error_code ec;
+  const fs::path parent = out.has_parent_path() ? out.parent_path() : fs::path(".");
+  fs::create_directories(parent, ec);
+  if (ec) throw InputError(out.string(), "cannot create the output folder: " + ec.message());
+  const fs::path tmp = parent / (".tmp-" + std::to_string(::getpid()) + "-" + out.filename().string());
+  fs::remove_all(tmp, ec);
+  bool made = fs::create_directory(tmp, ec);
+  for (const char* sub : {"images", "masks", "samples"}) made = made && fs::create_directory(tmp / sub, ec);
+  if (!made) {
+    fs::remove_all(tmp, ec);
+    throw InputError(out.string(), "cannot create the output folder: " + ec.message());
+  }
+  writeTextAtomically(tmp / "manifest.json", manifest_text);
+  fs::rename(tmp, out, ec);
+  if (!ec) return true;
+  fs::remove_all(tmp, ec);
+  return false;
+}
+
+// Sample files in the folder (complete or not): a cheap count to see whether another shard added
+// samples while this one assembled the annotations.
+int64_t countSampleFiles(const fs::path& out) {
+  int64_t n = 0;
+  std::error_code ec;
+  for (fs::directory_iterator it(out / "samples", ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    n += name.size() > 5 && name.compare(name.size() - 5, 5, ".json") == 0 && name.compare(0, 5, ".tmp-") != 0;
+  }
+  return n;
+}
+
+}  // namespace
+
 GenerateResult runGenerate(const GenerateOptions& o) {
   auto t_start = Clock::now();
   if (o.shard_count < 1 || o.shard_index < 0 || o.shard_index >= o.shard_count)
@@ -305,9 +347,17 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   }
 
   fs::path out = o.out_dir.empty() ? fs::path("out") / fs::path(o.config_path).stem() : fs::path(o.out_dir);
+  out = out.lexically_normal();
+  if (!out.has_filename() && out.has_parent_path()) out = out.parent_path();  // "data/" -> "data"
   std::string hash = ds.config.hash();
+  json manifest = {{"config_file", o.config_path},
+                   {"config_hash", hash},
+                   {"seed", seed},
+                   {"count", count},
+                   {"versions", libraryVersions()}};
   if (fs::exists(out) && !fs::is_directory(out)) throw InputError(out.string(), "--out: exists and is not a folder");
-  if (fs::is_directory(out) && !fs::is_empty(out)) {
+  const bool made = (!fs::exists(out) || fs::is_empty(out)) && createDatasetFolder(out, manifest.dump(2) + "\n");
+  if (!made && fs::is_directory(out) && !fs::is_empty(out)) {
     fs::path man = out / "manifest.json";
     bool same = false;
     if (fs::is_regular_file(man)) {
@@ -329,18 +379,14 @@ GenerateResult runGenerate(const GenerateOptions& o) {
       throw InputError(out.string(), "output folder already holds this dataset; pass --resume to continue it "
                                      "or remove the folder to start again");
   }
-  for (const char* sub : {"images", "masks", "samples"}) {
-    std::error_code ec;
-    fs::create_directories(out / sub, ec);
-    if (ec) throw InputError(out.string(), "cannot create the output folder: " + ec.message());
+  if (!made) {  // an existing dataset, or an empty folder that could not be renamed onto
+    for (const char* sub : {"images", "masks", "samples"}) {
+      std::error_code ec;
+      fs::create_directories(out / sub, ec);
+      if (ec) throw InputError(out.string(), "cannot create the output folder: " + ec.message());
+    }
+    if (!fs::exists(out / "manifest.json")) writeTextAtomically(out / "manifest.json", manifest.dump(2) + "\n");
   }
-
-  json manifest = {{"config_file", o.config_path},
-                   {"config_hash", hash},
-                   {"seed", seed},
-                   {"count", count},
-                   {"versions", libraryVersions()}};
-  if (!fs::exists(out / "manifest.json")) writeTextAtomically(out / "manifest.json", manifest.dump(2) + "\n");
 
   // 2. Render this shard's samples.
   GenerateResult res;
@@ -385,20 +431,30 @@ GenerateResult runGenerate(const GenerateOptions& o) {
     ++res.rendered;
     prog.done(i, secondsSince(t0));
   }
-  manifest["samples_complete"] = assembleAnnotations(out.string(), count);
-  res.seconds = secondsSince(t_start);
-  rusage ru{};
-  getrusage(RUSAGE_SELF, &ru);
-  manifest["last_run"] = {{"shard", std::to_string(o.shard_index) + "/" + std::to_string(o.shard_count)},
-                          {"threads", o.threads},
-                          {"rendered", res.rendered},
-                          {"skipped", res.skipped},
-                          {"timings", {{"total_s", res.seconds}, {"part_setup_s", part_s},
-                                       {"render_s", render_total},
-                                       {"peak_rss_mib", double(ru.ru_maxrss) / 1024.0},
-                                       {"samples", per_sample}}},
-                          {"memory_estimate_mib", double(frame_need) / double(1 << 20)}};
-  writeTextAtomically(out / "manifest.json", manifest.dump(2) + "\n");
+  // Shards that share a folder may finish together: one could scan the samples before another's
+  // last ones are written and rename its annotations.json (and manifest) into place after the
+  // other's. So each run counts the sample files before and after assembling and writing, and does
+  // it again if any appeared meanwhile: a run whose counts agree wrote everything there was, and a
+  // sample written after that belongs to a run that assembles later.
+  for (int64_t present = countSampleFiles(out);;) {
+    manifest["samples_complete"] = assembleAnnotations(out.string(), count);
+    res.seconds = secondsSince(t_start);
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    manifest["last_run"] = {{"shard", std::to_string(o.shard_index) + "/" + std::to_string(o.shard_count)},
+                            {"threads", o.threads},
+                            {"rendered", res.rendered},
+                            {"skipped", res.skipped},
+                            {"timings", {{"total_s", res.seconds}, {"part_setup_s", part_s},
+                                         {"render_s", render_total},
+                                         {"peak_rss_mib", double(ru.ru_maxrss) / 1024.0},
+                                         {"samples", per_sample}}},
+                            {"memory_estimate_mib", double(frame_need) / double(1 << 20)}};
+    writeTextAtomically(out / "manifest.json", manifest.dump(2) + "\n");
+    const int64_t now = countSampleFiles(out);
+    if (now == present) break;
+    present = now;
+  }
   if (!o.quiet)
     std::fprintf(stderr, "defectgen: %d sample(s) rendered, %d skipped, in %.1f s; dataset in %s\n", res.rendered,
                  res.skipped, res.seconds, out.string().c_str());

@@ -36,6 +36,14 @@ class InputError : public std::runtime_error {
   int line_, column_;
 };
 
+// A file that could not be written: a full disk, a folder without write permission or removed
+// meanwhile. Not a bug, and the user's to fix, so it is reported as an InputError is: one line
+// naming the file, exit status 2.
+class WriteError : public InputError {
+ public:
+  using InputError::InputError;
+};
+
 constexpr int kExitInputError = 2;
 
 }  // namespace dg

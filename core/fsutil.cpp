@@ -1,6 +1,8 @@
 #include "core/fsutil.h"
 
 #include <cctype>
+#include <cerrno>
+#include <cstring>
 #include <cstdio>
 #include <fcntl.h>
 #include <fstream>
@@ -13,25 +15,46 @@ namespace dg {
 
 namespace fs = std::filesystem;
 
+void throwWriteError(const fs::path& path, const std::string& reason) {
+  std::string msg = "cannot write the file (" + oneLineError(reason) + ")";
+  std::error_code ec;
+  const fs::space_info sp = fs::space(path.parent_path().empty() ? fs::path(".") : path.parent_path(), ec);
+  if (!ec && sp.available < (1u << 20))
+    msg += "; the file system holding it is full (" + std::to_string(sp.available / 1024) + " KiB free)";
+  throw WriteError(path.string(), msg);
+}
+
 void writeAtomically(const fs::path& path, const std::function<void(const fs::path&)>& write) {
   fs::path tmp = path.parent_path() /
                  (".tmp-" + std::to_string(::getpid()) + "-" + path.filename().string());
+  std::error_code ec;
   try {
     write(tmp);
+  } catch (const InputError&) {
+    fs::remove(tmp, ec);
+    throw;
+  } catch (const std::runtime_error& e) {  // the writers' I/O failures (std::logic_error is a bug)
+    fs::remove(tmp, ec);
+    throwWriteError(path, e.what());
   } catch (...) {
-    std::error_code ec;
     fs::remove(tmp, ec);
     throw;
   }
-  fs::rename(tmp, path);
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    const std::string reason = ec.message();
+    fs::remove(tmp, ec);
+    throwWriteError(path, reason);
+  }
 }
 
 void writeTextAtomically(const fs::path& path, const std::string& text) {
   writeAtomically(path, [&](const fs::path& tmp) {
     std::ofstream f(tmp, std::ios::binary);
+    if (!f) throw std::runtime_error(std::string("cannot open it: ") + std::strerror(errno));
     f << text;
     f.close();
-    if (!f) throw std::runtime_error("cannot write " + tmp.string());
+    if (!f) throw std::runtime_error(std::string(std::strerror(errno)));
   });
 }
 

@@ -13,6 +13,9 @@ namespace dg {
 void writeAtomically(const std::filesystem::path& path,
                      const std::function<void(const std::filesystem::path&)>& write);
 void writeTextAtomically(const std::filesystem::path& path, const std::string& text);
+// Throws WriteError for `path`: "cannot write the file (reason)", and where the file system holding
+// it is (nearly) full, that. writeAtomically reports the writers' I/O failures through it.
+[[noreturn]] void throwWriteError(const std::filesystem::path& path, const std::string& reason);
 std::string readTextFile(const std::filesystem::path& path);  // throws InputError if unreadable
 
 // A file name's extension in lower case, with its dot (".png"); "" if it has none.

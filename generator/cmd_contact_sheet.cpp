@@ -1,5 +1,6 @@
 #include <CLI/CLI.hpp>
 
+#include <cstring>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -8,6 +9,7 @@
 #include "core/fsutil.h"
 #include "generator/commands.h"
 #include "labels/classes.h"
+#include "labels/image_io.h"
 
 namespace dg {
 
@@ -90,10 +92,10 @@ void makeContactSheet(const std::string& dir, const std::string& out_png, int co
   if (!folder.empty()) fs::create_directories(folder, ec);
   if (ec || (!folder.empty() && !fs::is_directory(folder)))
     throw InputError(out_png, "--out: cannot create its folder" + (ec ? ": " + ec.message() : std::string()));
-  writeAtomically(out_png, [&](const fs::path& tmp) {
-    if (!cv::imwrite(tmp.string(), sheet))
-      throw InputError(out_png, "--out: cannot write the PNG here (a name ending in .png, in a folder you can write to)");
-  });
+  Image<uint8_t> bgr(sheet.cols, sheet.rows, 3);
+  for (int y = 0; y < sheet.rows; ++y)
+    std::memcpy(&bgr.data[size_t(y) * size_t(sheet.cols) * 3], sheet.ptr<uint8_t>(y), size_t(sheet.cols) * 3);
+  writeAtomically(out_png, [&](const fs::path& tmp) { writePngBgr8(tmp.string(), bgr); });
 }
 
 }  // namespace

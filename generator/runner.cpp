@@ -419,6 +419,9 @@ GenerateResult runGenerate(const GenerateOptions& o) {
                                   {"polygons", f.stats.groove_polygons},
                                   {"fallbacks", f.stats.groove_fallbacks}};
       writeSampleFiles(out, ds.config, s, f, t);
+    } catch (const WriteError& e) {
+      throw WriteError("", std::string(e.what()) + "; the " + std::to_string(res.rendered) +
+                               " sample(s) written before it are kept and --resume continues the dataset");
     } catch (const std::bad_alloc&) {
       // Every file is written whole or not at all, so what is there is a valid part of the dataset.
       const MemoryLimit lim = memoryLimit();

@@ -21,6 +21,7 @@
 #include "core/error.h"
 #include "core/fsutil.h"
 #include "core/version.h"
+#include "labels/image_io.h"
 
 namespace dg {
 
@@ -172,11 +173,20 @@ void writeStaged(const fs::path& outDir, const std::vector<std::pair<std::string
     // All but the last file (report.json) are independent: encode them concurrently. An exception
     // in any of them is rethrown here (the first in list order).
     const int n = int(files.size());
+    // A writer's I/O failure names the file it was to be.
+    auto writeOne = [&](int i) {
+      try {
+        files[i].second(stage / files[i].first);
+      } catch (const std::runtime_error& e) {
+        if (dynamic_cast<const InputError*>(&e)) throw;
+        throwWriteError(outDir / files[i].first, e.what());
+      }
+    };
     std::vector<std::exception_ptr> errors(n);
     cv::parallel_for_(cv::Range(0, n - 1), [&](const cv::Range& r) {
       for (int i = r.start; i < r.end; ++i) {
         try {
-          files[i].second(stage / files[i].first);
+          writeOne(i);
         } catch (...) {
           errors[i] = std::current_exception();
         }
@@ -184,12 +194,18 @@ void writeStaged(const fs::path& outDir, const std::vector<std::pair<std::string
     }, n - 1);
     for (const auto& e : errors)
       if (e) std::rethrow_exception(e);
-    files.back().second(stage / files.back().first);
+    writeOne(n - 1);
     // The old completion mark goes first, so that a reader never pairs it with new files.
     fs::remove(outDir / "report.json", ec);
     for (const std::string& name : stale) fs::remove(outDir / name, ec);
     for (const auto& [name, write] : files) fs::rename(stage / name, outDir / name);
     fs::remove_all(stage);
+  } catch (const InputError&) {
+    cleanup();
+    throw;
+  } catch (const std::runtime_error& e) {  // a file that could not be written, a full disk
+    cleanup();
+    throwWriteError(outDir, e.what());
   } catch (...) {
     cleanup();
     throw;
@@ -197,7 +213,11 @@ void writeStaged(const fs::path& outDir, const std::vector<std::pair<std::string
 }
 
 void writePng(const fs::path& p, const cv::Mat& bgr8) {
-  if (!cv::imwrite(p.string(), bgr8)) throw std::runtime_error("cannot write " + p.string());
+  if (bgr8.type() != CV_8UC3) throw std::logic_error("compare's writePng: expected an 8-bit BGR image");
+  Image<uint8_t> img(bgr8.cols, bgr8.rows, 3);
+  for (int y = 0; y < bgr8.rows; ++y)
+    std::memcpy(&img.data[size_t(y) * size_t(bgr8.cols) * 3], bgr8.ptr<uint8_t>(y), size_t(bgr8.cols) * 3);
+  writePngBgr8(p.string(), img);
 }
 
 void writeDeltaEExr(const fs::path& p, const cv::Mat& dE, const cv::Mat& valid, const json& meta) {

@@ -54,10 +54,11 @@ float srgbToLinear(float v) {
 
 namespace {
 
-void requireRgb(const ImageF& img, const char* who) {
+template <class T>
+void requireRgb(const Image<T>& img, const char* who) {
   if (img.channels != 3 || img.width <= 0 || img.height <= 0 ||
       img.data.size() != size_t(img.width) * img.height * 3)
-    throw std::logic_error(std::string(who) + ": expected a non-empty 3-channel linear RGB image, got " +
+    throw std::logic_error(std::string(who) + ": expected a non-empty 3-channel image, got " +
                            std::to_string(img.width) + "x" + std::to_string(img.height) + "x" +
                            std::to_string(img.channels));
 }
@@ -86,11 +87,12 @@ void writePng(const std::string& path, const cv::Mat& m) {
     throw std::runtime_error("cannot encode PNG for " + path + ": " + e.what());
   }
   if (!ok) throw std::runtime_error("cannot encode PNG for " + path);
+  // The path is the caller's to name (writeAtomically names the final one, not this temporary).
   std::ofstream f(path, std::ios::binary | std::ios::trunc);
-  if (!f) throw std::runtime_error("cannot open " + path + " for writing: " + std::strerror(errno));
+  if (!f) throw std::runtime_error(std::string("cannot open it for writing: ") + std::strerror(errno));
   f.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
   f.close();
-  if (!f) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
+  if (!f) throw std::runtime_error(std::strerror(errno));
 }
 
 // Linear RGB (float) -> sRGB-encoded BGR (OpenCV's channel order), rounded to nearest, or with
@@ -129,6 +131,12 @@ void writePngGray8(const std::string& path, const Image<uint8_t>& img) {
   requireGray(img, "writePngGray8");
   // The Mat header only wraps the buffer; imencode reads it, never writes.
   cv::Mat m(img.height, img.width, CV_8UC1, const_cast<uint8_t*>(img.data.data()));
+  writePng(path, m);
+}
+
+void writePngBgr8(const std::string& path, const Image<uint8_t>& bgr) {
+  requireRgb(bgr, "writePngBgr8");
+  cv::Mat m(bgr.height, bgr.width, CV_8UC3, const_cast<uint8_t*>(bgr.data.data()));
   writePng(path, m);
 }
 

@@ -22,6 +22,8 @@ void writePngRgb8(const std::string& path, const ImageF& linear_rgb, const uint6
 void writePngRgb16(const std::string& path, const ImageF& linear_rgb);
 void writePngGray8(const std::string& path, const Image<uint8_t>& img);
 void writePngGray16(const std::string& path, const Image<uint16_t>& img);
+// 8-bit colour as it is, channels in OpenCV's order (blue, green, red): the contact sheet.
+void writePngBgr8(const std::string& path, const Image<uint8_t>& bgr);
 
 // One named layer of an EXR: channel names are "<layer>.<suffix>" (e.g. "normal.X"); the layer
 // named "" gives plain "R", "G", "B".

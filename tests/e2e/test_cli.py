@@ -20,14 +20,21 @@ import coco_reader  # noqa: E402
 ARGS = None
 
 
-def run(*args, ok=True, address_space=None):
-    """address_space: bytes for RLIMIT_AS (ulimit -v), standing for a machine with that much memory."""
+def run(*args, ok=True, address_space=None, file_size=None):
+    """address_space: bytes for RLIMIT_AS (ulimit -v), standing for a machine with that much memory.
+    file_size: bytes for RLIMIT_FSIZE (ulimit -f), with SIGXFSZ ignored, so that a longer file fails
+    to write as on a full disk."""
     limit = None
-    if address_space:
+    if address_space or file_size:
         import resource
+        import signal
 
         def limit():
-            resource.setrlimit(resource.RLIMIT_AS, (address_space, address_space))
+            if address_space:
+                resource.setrlimit(resource.RLIMIT_AS, (address_space, address_space))
+            if file_size:
+                signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+                resource.setrlimit(resource.RLIMIT_FSIZE, (file_size, file_size))
     p = subprocess.run([ARGS.binary] + list(args), capture_output=True, text=True, timeout=600, preexec_fn=limit)
     if ok and p.returncode != 0:
         raise AssertionError("defectgen %s failed (%d):\n%s%s" % (" ".join(args), p.returncode, p.stdout, p.stderr))
@@ -271,8 +278,8 @@ class Generate(unittest.TestCase):
 
 
 class BadInput(unittest.TestCase):
-    def expect_error(self, args, *fragments, out=None, lines=1, address_space=None):
-        p = run(*args, ok=False, address_space=address_space)
+    def expect_error(self, args, *fragments, out=None, lines=1, address_space=None, file_size=None):
+        p = run(*args, ok=False, address_space=address_space, file_size=file_size)
         self.assertEqual(p.returncode, 2, "exit status for %s:\n%s" % (args, p.stderr))
         for frag in fragments:
             self.assertIn(frag, p.stderr)
@@ -476,6 +483,26 @@ defects:
             print("%s: estimate %.1f, peak RSS %.1f MiB per 2^20 pixels" % (name, est, rss))
             self.assertGreater(est, 0.8 * rss, name)
             self.assertLess(est, 1.25 * rss, name)
+
+    def test_files_that_cannot_be_written(self):
+        # A full disk, stood for by ulimit -f: each was "internal error" (exit 1), and libpng's own
+        # "libpng error: Write Error" line came before contact-sheet's message.
+        d = work("cannot_write")
+        cfg = self.config(d, SMALL.replace("count: 4", "count: 2").replace("[96, 72]", "[192, 144]"), "ok.yaml")
+        out = os.path.join(d, "out")
+        p = self.expect_error(["generate", cfg, "--out", out, "--quiet"], "out/images/000000.png: cannot write the "
+                              "file (File too large); the 0 sample(s) written before it are kept and --resume "
+                              "continues the dataset", file_size=20000)
+        self.assertEqual(sorted(os.listdir(os.path.join(out, "images"))), [])  # no temporary left
+        run("generate", cfg, "--out", out, "--quiet", "--resume")  # with room again, the run completes
+        self.assertEqual(load_json(os.path.join(out, "manifest.json"))["samples_complete"], 2)
+        p = self.expect_error(["contact-sheet", out, "--out", os.path.join(d, "sheet.png")],
+                              "sheet.png: cannot write the file (File too large)", file_size=20000)
+        self.assertNotIn("libpng", p.stderr)
+        img = os.path.join(out, "images", "000000.png")
+        self.expect_error(["compare", img, img, "--out", os.path.join(d, "cmp")],
+                          "cmp/delta_e_", ".png: cannot write the file (File too large)",
+                          out=os.path.join(d, "cmp"), lines=4, file_size=20000)  # three lines of progress first
 
     def test_foreign_output_folder_is_refused(self):
         d = work("foreign")

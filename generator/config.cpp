@@ -1007,13 +1007,25 @@ Config parseConfig(const std::string& text, const std::string& file, std::vector
   return c;
 }
 
+namespace {
+
+void requireConfigFile(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(path, ec)) return;
+  if (std::filesystem::is_directory(path, ec)) throw InputError(path, "is a folder, expected a YAML config file");
+  if (std::filesystem::exists(path, ec)) throw InputError(path, "is not a regular file, expected a YAML config file");
+  throw InputError(path, "config file not found");
+}
+
+}  // namespace
+
 Config loadConfig(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) throw InputError(path, "config file not found");
+  requireConfigFile(path);
   return parseConfig(readTextFile(path), path);
 }
 
 Config loadConfigAllErrors(const std::string& path, std::vector<InputError>& errors) {
-  if (!std::filesystem::is_regular_file(path)) throw InputError(path, "config file not found");
+  requireConfigFile(path);
   Config c = parseConfig(readTextFile(path), path, &errors);
   return c;
 }

@@ -409,6 +409,10 @@ defects:
         d = work("bad_flags")
         cfg = self.config(d, SMALL, "ok.yaml")
         out = os.path.join(d, "out")
+        # A config path that is a folder or a device said "config file not found".
+        self.expect_error(["generate", d, "--out", out], d + ": is a folder, expected a YAML config file", out=out)
+        self.expect_error(["validate", "/dev/null"], "/dev/null: is not a regular file, expected a YAML config file")
+        self.expect_error(["validate", os.path.join(d, "none.yaml")], "none.yaml: config file not found")
         self.expect_error(["generate", cfg, "--out", out, "--shard", "2/2"], "--shard", out=out)
         self.expect_error(["generate", cfg, "--out", out, "--shard", "x"], "--shard", out=out)
         # Flag errors found by the parser are one line too, in the same form.

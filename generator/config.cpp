@@ -682,8 +682,12 @@ class Parser {
         if (f.type == FieldType::Path) {
           std::filesystem::path p(n.Scalar());
           if (p.is_relative()) p = std::filesystem::path(file_).parent_path() / p;
-          if (!std::filesystem::is_regular_file(p))
-            fail(n, where(path) + ": file not found: " + p.string());
+          std::error_code ec;
+          if (!std::filesystem::is_regular_file(p, ec))
+            fail(n, where(path) + (std::filesystem::is_directory(p, ec) ? ": is a folder, expected a file: "
+                                   : std::filesystem::exists(p, ec)    ? ": is not a regular file: "
+                                                                       : ": file not found: ") +
+                        p.string());
           v.dist.constant = p.lexically_normal().string();
         }
         break;

@@ -120,6 +120,13 @@ TEST(Config, MissingFileAndMissingRequiredKeys) {
                            "  fov_deg: 40\n  position: [0, 0, 500]\n");
   EXPECT_NE(e2.find("test.yaml:3:9"), std::string::npos) << e2;
   EXPECT_NE(e2.find("file not found"), std::string::npos) << e2;
+  // A folder or a device where a file is expected is named as such.
+  std::string e3 = errorOf("part:\n  type: mesh\n  path: /tmp\nlights:\n  - type: dome\ncamera:\n"
+                           "  fov_deg: 40\n  position: [0, 0, 500]\n");
+  EXPECT_NE(e3.find("test.yaml:3:9: 'part.path': is a folder, expected a file: /tmp"), std::string::npos) << e3;
+  std::string e4 = errorOf("part:\n  type: mesh\n  path: /dev/null\nlights:\n  - type: dome\ncamera:\n"
+                           "  fov_deg: 40\n  position: [0, 0, 500]\n");
+  EXPECT_NE(e4.find("'part.path': is not a regular file: /dev/null"), std::string::npos) << e4;
 }
 
 TEST(Config, CrossFieldRules) {

@@ -59,8 +59,10 @@ void writeTextAtomically(const fs::path& path, const std::string& text) {
 }
 
 std::string readTextFile(const fs::path& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw InputError(path.string(), "is a folder, expected a file");
   std::ifstream f(path, std::ios::binary);
-  if (!f) throw InputError(path.string(), "cannot open file for reading");
+  if (!f) throw InputError(path.string(), std::string("cannot open the file for reading (") + std::strerror(errno) + ")");
   std::ostringstream s;
   s << f.rdbuf();
   return s.str();

@@ -868,8 +868,7 @@ void runComparePairs(const CompareRequest& req) {
     throw InputError("--mask", "applies to one pair; with --pairs give masks in the CSV's mask column");
   if (req.options.registration.mode == RegistrationMode::Points)
     throw InputError("--register", "points FILE applies to one pair; with --pairs give point files in the CSV's points column");
-  std::ifstream f(csv);
-  if (!f) throw InputError(csv, "cannot open the pairs file for reading");
+  std::istringstream f(readTextFile(csv));  // names a missing file or a folder
   const fs::path base = fs::path(csv).parent_path();
   auto resolve = [&](const std::string& p) { return fs::path(p).is_absolute() || base.empty() ? p : (base / p).string(); };
 

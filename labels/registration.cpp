@@ -12,6 +12,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "core/error.h"
+#include "core/fsutil.h"
 #include "labels/colorimetry.h"
 
 namespace dg {
@@ -145,8 +146,7 @@ std::string trim(const std::string& s) {
 }  // namespace
 
 std::vector<PointPair> readPointPairs(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) throw InputError(path, "cannot open the point file for reading");
+  std::istringstream f(readTextFile(path));  // names a missing file or a folder
   std::vector<PointPair> pairs;
   std::string line;
   int lineNo = 0;

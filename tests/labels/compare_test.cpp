@@ -542,6 +542,13 @@ TEST(Registration, BadInputIsAnInputError) {
     EXPECT_EQ(e.column(), 6);
   }
   EXPECT_THROW(readPointPairs((tmp.path / "missing.txt").string()), InputError);
+  // A folder was read as an empty file: "at least 4 pairs".
+  try {
+    readPointPairs(tmp.path.string());
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("is a folder, expected a file"), std::string::npos) << e.what();
+  }
   // Collinear points do not determine a homography.
   const fs::path line = tmp.path / "line.txt";
   std::ofstream(line) << "0 0 0 0\n1 1 1 1\n2 2 2 2\n3 3 3 3\n4 4 4 4\n";

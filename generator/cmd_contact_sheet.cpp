@@ -46,7 +46,8 @@ cv::Mat overlay(const cv::Mat& img, const cv::Mat& sem, const cv::Mat& inst) {
   return out;
 }
 
-void makeContactSheet(const std::string& dir, const std::string& out_png, int columns, int thumb) {
+// Returns how many images the dataset has (the sheet shows the first `max_images`).
+size_t makeContactSheet(const std::string& dir, const std::string& out_png, int columns, int thumb, int max_images) {
   if (lowerExtension(out_png) != ".png") throw InputError(out_png, "--out: expected a file name ending in .png");
   fs::path d(dir);
   if (!fs::is_directory(d / "images")) throw InputError(dir, "not a defectgen dataset folder (no images/)");
@@ -55,6 +56,9 @@ void makeContactSheet(const std::string& dir, const std::string& out_png, int co
     if (e.path().extension() == ".png" && e.path().filename().string()[0] != '.') images.push_back(e.path());
   std::sort(images.begin(), images.end());
   if (images.empty()) throw InputError(dir, "no images in images/");
+  // A sheet is an overview: a dataset of thousands would make one of billions of pixels.
+  const size_t total = images.size();
+  if (images.size() > size_t(max_images)) images.resize(size_t(max_images));
   std::vector<cv::Mat> tiles;
   for (auto& p : images) {
     cv::Mat img = cv::imread(p.string(), cv::IMREAD_COLOR);
@@ -96,6 +100,7 @@ void makeContactSheet(const std::string& dir, const std::string& out_png, int co
   for (int y = 0; y < sheet.rows; ++y)
     std::memcpy(&bgr.data[size_t(y) * size_t(sheet.cols) * 3], sheet.ptr<uint8_t>(y), size_t(sheet.cols) * 3);
   writeAtomically(out_png, [&](const fs::path& tmp) { writePngBgr8(tmp.string(), bgr); });
+  return total;
 }
 
 }  // namespace
@@ -103,7 +108,7 @@ void makeContactSheet(const std::string& dir, const std::string& out_png, int co
 void addContactSheetCommand(CLI::App& app) {
   struct Opts {
     std::string dir, out;
-    int columns = 5, thumb = 256;
+    int columns = 5, thumb = 256, max_images = 100;
   };
   auto o = std::make_shared<Opts>();
   auto* c = app.add_subcommand("contact-sheet", "Grid of a dataset's images with the masks overlaid");
@@ -111,10 +116,16 @@ void addContactSheetCommand(CLI::App& app) {
   c->add_option("--out", o->out, "Output PNG (default: DATASET/contact_sheet.png)");
   c->add_option("--columns", o->columns, "Images per row")->check(CLI::Range(1, 64));
   c->add_option("--thumb", o->thumb, "Width of each image in pixels")->check(CLI::Range(16, 4096));
+  c->add_option("--max", o->max_images, "Show the first N images, in name order (default 100)")
+      ->check(CLI::Range(1, 10000));
   c->callback([o] {
     std::string out = o->out.empty() ? (fs::path(o->dir) / "contact_sheet.png").string() : o->out;
-    makeContactSheet(o->dir, out, o->columns, o->thumb);
-    std::fprintf(stderr, "defectgen: contact sheet written to %s\n", out.c_str());
+    const size_t total = makeContactSheet(o->dir, out, o->columns, o->thumb, o->max_images);
+    if (total > size_t(o->max_images))
+      std::fprintf(stderr, "defectgen: contact sheet of the first %d of %zu images (--max) written to %s\n",
+                   o->max_images, total, out.c_str());
+    else
+      std::fprintf(stderr, "defectgen: contact sheet written to %s\n", out.c_str());
   });
 }
 

@@ -9,6 +9,7 @@ import glob
 import json
 import os
 import shutil
+import struct
 import subprocess
 import sys
 import unittest
@@ -519,6 +520,23 @@ defects:
 
 
 class Commands(unittest.TestCase):
+    def test_contact_sheet_shows_the_first_images(self):
+        # A sheet of every image of a large dataset would be billions of pixels: --max (default 100).
+        d = work("contact_sheet")
+        cfg = os.path.join(d, "small.yaml")
+        with open(cfg, "w") as f:
+            f.write(SMALL.replace("spp: 2", "spp: 1"))
+        data = os.path.join(d, "data")
+        run("generate", cfg, "--out", data, "--quiet")
+        sheet = os.path.join(d, "sheet.png")
+        p = run("contact-sheet", data, "--out", sheet, "--max", "3", "--columns", "2", "--thumb", "64")
+        self.assertIn("contact sheet of the first 3 of 4 images (--max)", p.stderr)
+        # Two columns of 64 + 2 pixels, two rows of 48 (64 / 96 * 72) + 2.
+        self.assertEqual(struct.unpack(">II", read_bytes(sheet)[16:24]), (132, 100))
+        p = run("contact-sheet", data, "--out", sheet, "--columns", "2", "--thumb", "64")
+        self.assertNotIn("--max", p.stderr)
+        self.assertEqual(struct.unpack(">II", read_bytes(sheet)[16:24]), (132, 100))
+
     def test_validate_prints_defaults_and_units(self):
         p = run("validate", os.path.join(ARGS.source, "configs", "quickstart.yaml"))
         self.assertIn("max_bounces: 3", p.stdout)

@@ -88,17 +88,6 @@ uint64_t peakBytesPerPixel(const Value& r) {
   return frame + std::max({png_step, mask_step, exr_step});
 }
 
-}  // namespace
-
-uint64_t frameMemoryEstimate(const Config& cfg) {
-  const Value& r = cfg.root["render"];
-  const Value& res = r["resolution"];
-  // 200 MiB for the process itself: its libraries, the part and the defects' tables.
-  return uint64_t(res.items[0].num()) * uint64_t(res.items[1].num()) * peakBytesPerPixel(r) + (200ull << 20);
-}
-
-namespace {
-
 // Refuses a resolution whose frame cannot fit in the memory this process may use, before anything
 // is written: past it a render ends in std::bad_alloc or, with Linux's overcommit, is killed by the
 // kernel without a message. Returns the estimate.
@@ -241,6 +230,13 @@ std::optional<json> completeSample(const fs::path& out, uint64_t i) {
 bool sampleComplete(const fs::path& out, uint64_t i) { return completeSample(out, i).has_value(); }
 
 }  // namespace
+
+uint64_t frameMemoryEstimate(const Config& cfg) {
+  const Value& r = cfg.root["render"];
+  const Value& res = r["resolution"];
+  // 200 MiB for the process itself: its libraries, the part and the defects' tables.
+  return uint64_t(res.items[0].num()) * uint64_t(res.items[1].num()) * peakBytesPerPixel(r) + (200ull << 20);
+}
 
 int64_t assembleAnnotations(const std::string& out_dir, int64_t count) {
   fs::path out(out_dir);

@@ -10,6 +10,8 @@
 
 namespace dg {
 
+struct Config;
+
 struct GenerateOptions {
   std::string config_path;
   std::string out_dir;  // empty = out/<config stem>
@@ -30,7 +32,6 @@ struct GenerateResult {
 
 GenerateResult runGenerate(const GenerateOptions& opts);
 
-struct Config;
 // The memory a sample takes at its peak: the frame and the outputs the config asks for, at its
 // resolution, plus the process's own (docs/output.md, "Memory"). generate refuses a config whose
 // estimate is more than the process may use (core/memory.h); validate prints it.

@@ -177,8 +177,9 @@ void writeStaged(const fs::path& outDir, const std::vector<std::pair<std::string
     auto writeOne = [&](int i) {
       try {
         files[i].second(stage / files[i].first);
+      } catch (const InputError&) {
+        throw;
       } catch (const std::runtime_error& e) {
-        if (dynamic_cast<const InputError*>(&e)) throw;
         throwWriteError(outDir / files[i].first, e.what());
       }
     };

@@ -297,6 +297,25 @@ int64_t countSampleFiles(const fs::path& out) {
   return n;
 }
 
+// The temporaries that a killed run left in the dataset's folders (`.tmp-PID-NAME`, renamed
+// into place only when whole). A live run on another host that shares the folder cannot be told
+// from a dead one by its PID, so only files untouched for an hour are taken: no file of ours takes
+// that long to write. Returns how many were removed.
+int removeAbandonedTemporaries(const fs::path& out) {
+  int n = 0;
+  const auto now = fs::file_time_type::clock::now();
+  for (const char* sub : {"images", "masks", "samples"}) {
+    std::error_code ec;
+    for (fs::directory_iterator it(out / sub, ec), end; !ec && it != end; it.increment(ec)) {
+      if (it->path().filename().string().compare(0, 5, ".tmp-") != 0) continue;
+      std::error_code e2;
+      const auto t = fs::last_write_time(it->path(), e2);
+      if (!e2 && now - t > std::chrono::hours(1) && fs::remove(it->path(), e2)) ++n;
+    }
+  }
+  return n;
+}
+
 }  // namespace
 
 GenerateResult runGenerate(const GenerateOptions& o) {
@@ -387,6 +406,11 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   // 2. Render this shard's samples.
   GenerateResult res;
   res.out_dir = out.string();
+  if (o.resume) {
+    const int removed = removeAbandonedTemporaries(out);
+    if (removed > 0 && !o.quiet)
+      std::fprintf(stderr, "defectgen: removed %d temporary file(s) that an interrupted run left\n", removed);
+  }
   std::vector<uint64_t> todo;
   for (uint64_t i : mine) {
     if (o.resume && sampleComplete(out, i)) {

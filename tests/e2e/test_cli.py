@@ -12,6 +12,7 @@ import shutil
 import struct
 import subprocess
 import sys
+import time
 import unittest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -253,15 +254,22 @@ class Generate(unittest.TestCase):
         for i in (2, 3):
             for f in glob.glob(os.path.join(cut, "*", "%06d*" % i)):
                 os.remove(f)
-        with open(os.path.join(cut, "images", ".tmp-999-000002.png"), "wb") as f:
-            f.write(b"half")
+        # The killed run's temporaries: one untouched for two hours is removed by --resume, one
+        # written a minute ago (perhaps by a live shard on another host) is kept.
+        old, fresh = os.path.join(cut, "images", ".tmp-999-000002.png"), os.path.join(cut, "masks", ".tmp-998-x.png")
+        for path, age in ((old, 7200), (fresh, 60)):
+            with open(path, "wb") as f:
+                f.write(b"half")
+            os.utime(path, (time.time() - age, time.time() - age))
         os.remove(os.path.join(cut, "annotations.json"))
         p = run("generate", cfg, "--out", cut, ok=False)
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn("--resume", p.stderr)
         p = run("generate", cfg, "--out", cut, "--resume")
         self.assertIn("2 sample(s) rendered, 2 skipped", p.stderr)
-        os.remove(os.path.join(cut, "images", ".tmp-999-000002.png"))
+        self.assertIn("removed 1 temporary file(s) that an interrupted run left", p.stderr)
+        self.assertFalse(os.path.exists(old))
+        os.remove(fresh)
         assert_same_tree(self, whole, cut)
         # Damage from outside: a sample file cut short (it was an internal error) and an image
         # removed. Those samples are rendered again; a manifest that does not parse is named.

@@ -29,6 +29,11 @@ struct ScratchGeometryOptions {
   // along the path is followed (the cross-sections themselves are exact at any size).
   double cell_mm = 0;
   size_t max_triangles = 40'000'000;  // refuse rather than exhaust memory
+  // The memory the mesh may take at its peak, once it is rendered: its arrays, the renderer's
+  // per-triangle frames and Embree's BVH (bytes; 0 = no limit). A mesh whose estimate is larger is
+  // refused as soon as its size is known, before it is copied out and given a BVH, rather than
+  // left to std::bad_alloc or, under Linux's overcommit, to the kernel's OOM killer.
+  uint64_t max_bytes = 0;
   // A finest cell (within one part triangle) is cut along the kinks until it holds this many
   // pieces, then left as it is: a bound on the work and the triangles of one cell whatever the
   // scratches. The scenes of the accuracy tests and the bench need at most 91.

@@ -111,7 +111,8 @@ defects:
 """
 
 
-# Session 9's fine scratch in the explicit-geometry mode: 11 million triangles, 3.4 GB at its peak.
+# Session 9's fine scratch in the explicit-geometry mode (with a fixed orientation): 7.1 million
+# triangles, 2.0 GB at its peak.
 C29_FINE_SCRATCH = """seed: 789568
 count: 1
 part: {type: plate, width_mm: 40, height_mm: 40}
@@ -470,9 +471,13 @@ defects:
         self.assertIn("big.yaml is valid; a sample needs about 10.3 GiB of memory, more than the", p.stderr)
         self.assertIn("so generate would refuse it here", p.stderr)
         self.assertNotIn("refuse", run("validate", big).stderr)
-        # What the frame check cannot foresee (here the scratch reference's cut mesh, which needs
-        # 3.4 GB) ends in one message too.
+        # The scratch reference's cut mesh (7.1 million triangles, 2.0 GB at its peak) is refused
+        # once its size is known, before it is copied out and given a BVH ...
         cut = self.config(d, C29_FINE_SCRATCH, "cut.yaml")
+        self.expect_error(["generate", cut, "--out", out, "--quiet"], "cut.yaml:8:51: 'render.scratches': geometry: "
+                          "the cut mesh of 7098658 triangles would need about 1.8 GiB, more than the", out=out,
+                          address_space=7 << 28)
+        # ... and what no check foresees (here the cutting itself) ends in one message too.
         self.expect_error(["generate", cut, "--out", out, "--quiet"], "generate ran out of memory (ulimit -v: 1.5 GiB)",
                           out=out, address_space=3 << 29)
 

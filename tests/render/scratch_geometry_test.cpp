@@ -167,6 +167,24 @@ TEST(ScratchGeometry, CountingAloneGivesTheMeshsFiguresAndItsErrors) {
     cap.max_triangles = full.triangles - 1;
     EXPECT_THROW(scratchedMesh(plate, list, cap), std::runtime_error) << "count_only " << count_only;
   }
+  // The memory cap: 36 bytes per vertex and 196 per triangle, whether the mesh is kept or counted.
+  const uint64_t need = uint64_t(m.positions.size()) * 36 + uint64_t(m.triangleCount()) * 196;
+  for (bool count_only : {false, true}) {
+    ScratchGeometryOptions cap;
+    cap.count_only = count_only;
+    cap.max_bytes = need;
+    EXPECT_NO_THROW(scratchedMesh(plate, list, cap)) << "count_only " << count_only;
+    cap.max_bytes = need - 1;
+    try {
+      scratchedMesh(plate, list, cap);
+      ADD_FAILURE() << "count_only " << count_only;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("the cut mesh of " + std::to_string(full.triangles) +
+                                           " triangles would need about"),
+                std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 // A very fine process scratch (1 kg on HV 232: 4 micrometres deep, 50 profile vertices, some

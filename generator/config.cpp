@@ -984,6 +984,48 @@ void refuseDuplicateKeys(const YAML::Node& n, const std::string& file, int depth
     }
   }
 }
+// YAML 1.1's merge key, which yaml-cpp leaves as an ordinary key "<<": `<<: *name` or
+// `<<: [*a, *b]` adds the keys of those mappings to the mapping that holds it, where it does not
+// give them itself (of a list, the first mapping wins). The merged keys and values keep their place
+// in the file, so an error in one points at the anchor's text.
+void expandMergeKeys(YAML::Node n, const std::string& file, int depth = 0) {
+  if (depth > 256) return;
+  if (n.IsSequence()) {
+    for (YAML::Node c : n) expandMergeKeys(c, file, depth + 1);
+    return;
+  }
+  if (!n.IsMap()) return;
+  YAML::Node merge;
+  bool has_merge = false;
+  for (auto it = n.begin(); it != n.end(); ++it)
+    if (it->first.IsScalar() && it->first.Tag() == "?" && it->first.Scalar() == "<<") {
+      merge = it->second;
+      has_merge = true;
+    }
+  if (has_merge) {
+    const char* expected = "'<<' (merge key): expected a mapping, such as an alias *name, or a list of them";
+    std::vector<YAML::Node> sources;
+    if (merge.IsMap()) {
+      sources.push_back(merge);
+    } else if (merge.IsSequence()) {
+      for (YAML::Node m : merge) {
+        if (!m.IsMap()) throw InputError(file, m.Mark().line + 1, m.Mark().column + 1, expected);
+        sources.push_back(m);
+      }
+    } else {
+      throw InputError(file, merge.Mark().line + 1, merge.Mark().column + 1, expected);
+    }
+    n.remove("<<");
+    const YAML::Node& held = n;  // lookups on a const node insert nothing
+    for (YAML::Node& src : sources) {
+      expandMergeKeys(src, file, depth + 1);
+      for (auto it = src.begin(); it != src.end(); ++it)
+        if (it->first.IsScalar() && !held[it->first.Scalar()]) n.force_insert(it->first, it->second);
+    }
+  }
+  for (auto it = n.begin(); it != n.end(); ++it) expandMergeKeys(it->second, file, depth + 1);
+}
+
 }  // namespace
 
 Config parseConfig(const std::string& text, const std::string& file, std::vector<InputError>* all_errors) {
@@ -996,6 +1038,7 @@ Config parseConfig(const std::string& text, const std::string& file, std::vector
   }
   if (!doc.IsMap()) throw InputError(file, 1, 1, "expected a YAML mapping at the top level (part, camera, lights, ...)");
   refuseDuplicateKeys(doc, file);
+  expandMergeKeys(doc, file);
   Config c;
   c.file = file;
   c.text = text;
@@ -1234,7 +1277,12 @@ std::string configReferenceMarkdown() {
        "A config is a YAML file. Units are part of the key names (`_mm`, `_deg`); angles are degrees, "
        "lengths millimetres, colours linear Rec.709 RGB. `defectgen validate CONFIG` prints the "
        "resolved config with every default and unit. An unknown key, a value out of its range and a key "
-       "given twice in one mapping are refused with their line and column.\n\n"
+       "given twice in one mapping are refused with their line and column. Settings shared by "
+       "several lights or defects can be written once with an anchor and merged with YAML's merge "
+       "key: after `- &dent {type: dent, radius_mm: 20}`, an entry `- <<: *dent` followed by "
+       "`depth_mm: 2` is that dent with its own depth (the entry's own keys win; `<<: [*a, *b]` "
+       "merges several, the first winning); an error in a merged value points at the anchor's "
+       "text.\n\n"
        "Any field marked *random: yes* may be a distribution instead of a constant, sampled anew for "
        "every image; each sampled value is recorded in `samples/NNNNNN.json` under its config path:\n\n"
        "| form | meaning |\n|---|---|\n"

@@ -53,6 +53,44 @@ TEST(Config, AKeyGivenTwiceIsRefused) {
   EXPECT_EQ(errorOf(std::string(kMinimal) + "defects:\n  - {type: dent, radius_mm: 5}\n  - {type: dent, radius_mm: 6}\n"), "");
 }
 
+// YAML's merge key, `<<: *name`, which yaml-cpp leaves as an ordinary key (it was "missing
+// 'type'" at the merging mapping).
+TEST(Config, MergeKeysShareSettings) {
+  const std::string base = std::string(kMinimal) +
+                           "dent: &dent {type: dent, radius_mm: 20, depth_mm: 1}\n"  // line 8
+                           "big: &big {radius_mm: 40}\n"
+                           "defects:\n"
+                           "  - <<: *dent\n"
+                           "  - <<: *dent\n"
+                           "    depth_mm: 2\n"
+                           "  - <<: [*big, *dent]\n";
+  // The anchors' own keys are not config fields.
+  std::string e = errorOf(base);
+  EXPECT_NE(e.find("test.yaml:8:1: unknown key 'dent'"), std::string::npos) << e;
+  const std::string text = std::string(kMinimal) +
+                           "defects:\n"
+                           "  - &dent {type: dent, radius_mm: 20, depth_mm: 1}\n"  // line 9
+                           "  - <<: *dent\n"
+                           "    depth_mm: 2\n"
+                           "  - <<: [{radius_mm: 40}, *dent]\n";
+  Config c = parseConfig(text, "test.yaml");
+  const auto& d = c.root["defects"].items;
+  ASSERT_EQ(d.size(), 3u);
+  EXPECT_EQ(d[1]["type"].str(), "dent");
+  EXPECT_DOUBLE_EQ(d[1]["radius_mm"].num(), 20);
+  EXPECT_DOUBLE_EQ(d[1]["depth_mm"].num(), 2);  // the mapping's own key wins
+  EXPECT_DOUBLE_EQ(d[2]["radius_mm"].num(), 40);  // of a list, the first mapping wins
+  EXPECT_DOUBLE_EQ(d[2]["depth_mm"].num(), 1);
+  // A merged value that is wrong is named where the anchor gives it.
+  e = errorOf(std::string(kMinimal) + "defects:\n  - &dent {type: dent, radius_mm: -5}\n  - <<: *dent\n");
+  EXPECT_NE(e.find("test.yaml:9:35: 'defects[0].radius_mm': -5 is out of range"), std::string::npos) << e;
+  e = errorOf(std::string(kMinimal) + "defects:\n  - <<: 3\n");
+  EXPECT_NE(e.find("test.yaml:9:9: '<<' (merge key): expected a mapping"), std::string::npos) << e;
+  // Quoted, it is an ordinary key.
+  e = errorOf(std::string(kMinimal) + "defects:\n  - {type: dent, '<<': {radius_mm: 5}}\n");
+  EXPECT_NE(e.find("unknown key '<<'"), std::string::npos) << e;
+}
+
 TEST(Config, MinimalConfigGetsEveryDefault) {
   Config c = parseConfig(kMinimal, "test.yaml");
   EXPECT_EQ(c.root["part"]["type"].str(), "plate");

@@ -1032,7 +1032,16 @@ Config parseConfig(const std::string& text, const std::string& file, std::vector
   Parser p(file, all_errors);
   YAML::Node doc;
   try {
-    doc = YAML::Load(text);
+    // All the documents: YAML::Load would read the first and drop the rest without a word (a
+    // second config appended after `---`).
+    // An empty document (a '---' at the end) is let pass.
+    std::vector<YAML::Node> docs = YAML::LoadAll(text);
+    for (size_t k = 1; k < docs.size(); ++k)
+      if (!docs[k].IsNull())
+        throw InputError(file, docs[k].Mark().line + 1, docs[k].Mark().column + 1,
+                       "a second YAML document begins here; a config is one document (remove the '---' "
+                       "and what follows, or make it a config file of its own)");
+    if (!docs.empty()) doc = docs.front();
   } catch (const YAML::ParserException& e) {
     throw InputError(file, e.mark.line + 1, e.mark.column + 1, "malformed YAML: " + e.msg);
   }
@@ -1277,7 +1286,8 @@ std::string configReferenceMarkdown() {
        "A config is a YAML file. Units are part of the key names (`_mm`, `_deg`); angles are degrees, "
        "lengths millimetres, colours linear Rec.709 RGB. `defectgen validate CONFIG` prints the "
        "resolved config with every default and unit. An unknown key, a value out of its range and a key "
-       "given twice in one mapping are refused with their line and column. Settings shared by "
+       "given twice in one mapping are refused with their line and column, as is a second YAML "
+       "document after `---` (a config is one). Settings shared by "
        "several lights or defects can be written once with an anchor and merged with YAML's merge "
        "key: after `- &dent {type: dent, radius_mm: 20}`, an entry `- <<: *dent` followed by "
        "`depth_mm: 2` is that dent with its own depth (the entry's own keys win; `<<: [*a, *b]` "

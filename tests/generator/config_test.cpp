@@ -91,6 +91,15 @@ TEST(Config, MergeKeysShareSettings) {
   EXPECT_NE(e.find("unknown key '<<'"), std::string::npos) << e;
 }
 
+// YAML::Load read the first document and dropped a second one appended after '---' without a word.
+TEST(Config, ASecondDocumentIsRefused) {
+  std::string e = errorOf(std::string(kMinimal) + "---\nseed: 5\n");
+  EXPECT_NE(e.find("test.yaml:9:1: a second YAML document begins here; a config is one document"), std::string::npos)
+      << e;
+  EXPECT_EQ(errorOf(std::string(kMinimal) + "---\n"), "");  // an empty one at the end is let pass
+  EXPECT_EQ(errorOf("---\n" + std::string(kMinimal)), "");
+}
+
 TEST(Config, MinimalConfigGetsEveryDefault) {
   Config c = parseConfig(kMinimal, "test.yaml");
   EXPECT_EQ(c.root["part"]["type"].str(), "plate");

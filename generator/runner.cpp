@@ -70,9 +70,11 @@ void applyOverrides(Config& c, const GenerateOptions& o) {
 // it the dearest of writeSampleFiles' steps. Checked against the peak RSS by the e2e test
 // test_frame_memory_estimate_follows_the_peak.
 uint64_t peakBytesPerPixel(const Value& r) {
-  const bool exr = r["exr"].flag(), masks = r["masks"].flag();
+  RenderSettings want;
+  setFrameOutputs(r, want);
+  const bool exr = r["exr"].flag(), masks = want.want_coverage;
   const std::string png = r["png"].str();
-  const bool rgb = png != "none" || exr, depth = exr && r["depth"].flag(), normals = exr && r["normals"].flag();
+  const bool rgb = want.want_rgb, depth = want.want_depth, normals = want.want_normals;
   uint64_t frame = (rgb ? 12 : 0) + (depth ? 4 : 0) + (normals ? 12 : 0) + (masks ? 6 : 0);
   // The exposed copy of the RGB, held through all the writing.
   if (rgb && r["exposure_stops"].num() != 0) frame += 12;

@@ -144,10 +144,7 @@ Sample buildSample(const Dataset& ds, uint64_t seed, uint64_t index, bool check_
   const uint64_t noise_seed = uint64_t(r["noise_seed"].num());
   s.settings.seed = noise_seed == 0 ? seed : hashKey(seed, 0x6e6f697365ull, noise_seed);
   s.settings.sample_index = index;
-  s.settings.want_rgb = r["png"].str() != "none" || r["exr"].flag();
-  s.settings.want_depth = r["depth"].flag() && r["exr"].flag();
-  s.settings.want_normals = r["normals"].flag() && r["exr"].flag();
-  s.settings.want_coverage = r["masks"].flag();
+  setFrameOutputs(r, s.settings);
   s.settings.coverage_grid = int(r["mask_subsamples"].num());
 
   // Camera.
@@ -736,6 +733,13 @@ Sample buildSample(const Dataset& ds, uint64_t seed, uint64_t index, bool check_
 }
 
 }  // namespace
+
+void setFrameOutputs(const Value& r, RenderSettings& settings) {
+  settings.want_rgb = r["png"].str() != "none" || r["exr"].flag();
+  settings.want_depth = r["depth"].flag() && r["exr"].flag();
+  settings.want_normals = r["normals"].flag() && r["exr"].flag();
+  settings.want_coverage = r["masks"].flag();
+}
 
 Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index) { return buildSample(ds, seed, index, false); }
 

@@ -34,6 +34,11 @@ struct Sample {
 
 Sample makeSample(const Dataset& ds, uint64_t seed, uint64_t index);
 
+// The frame's buffers that the config's render block asks for (RenderSettings::want_*): RGB where a
+// PNG or the EXR is written, depth and normals only into the EXR, coverage for the masks. The
+// samples' settings and generate's memory estimate both take them from here.
+void setFrameOutputs(const Value& render, RenderSettings& settings);
+
 // Throws what makeSample(ds, seed, index) would throw, at less cost: a mesh of the sample's own is
 // made but gets no BVH, and the explicit scratch geometry is only cut and counted, not stored.
 void checkSample(const Dataset& ds, uint64_t seed, uint64_t index);

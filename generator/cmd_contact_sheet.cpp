@@ -1,6 +1,5 @@
 #include <CLI/CLI.hpp>
 
-#include <cstring>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -96,10 +95,9 @@ size_t makeContactSheet(const std::string& dir, const std::string& out_png, int 
   if (!folder.empty()) fs::create_directories(folder, ec);
   if (ec || (!folder.empty() && !fs::is_directory(folder)))
     throw InputError(out_png, "--out: cannot create its folder" + (ec ? ": " + ec.message() : std::string()));
-  Image<uint8_t> bgr(sheet.cols, sheet.rows, 3);
-  for (int y = 0; y < sheet.rows; ++y)
-    std::memcpy(&bgr.data[size_t(y) * size_t(sheet.cols) * 3], sheet.ptr<uint8_t>(y), size_t(sheet.cols) * 3);
-  writeAtomically(out_png, [&](const fs::path& tmp) { writePngBgr8(tmp.string(), bgr); });
+  writeAtomically(out_png, [&](const fs::path& tmp) {
+    writePngBgr8(tmp.string(), sheet.ptr<uint8_t>(0), sheet.cols, sheet.rows, sheet.step);
+  });
   return total;
 }
 

@@ -215,10 +215,7 @@ void writeStaged(const fs::path& outDir, const std::vector<std::pair<std::string
 
 void writePng(const fs::path& p, const cv::Mat& bgr8) {
   if (bgr8.type() != CV_8UC3) throw std::logic_error("compare's writePng: expected an 8-bit BGR image");
-  Image<uint8_t> img(bgr8.cols, bgr8.rows, 3);
-  for (int y = 0; y < bgr8.rows; ++y)
-    std::memcpy(&img.data[size_t(y) * size_t(bgr8.cols) * 3], bgr8.ptr<uint8_t>(y), size_t(bgr8.cols) * 3);
-  writePngBgr8(p.string(), img);
+  writePngBgr8(p.string(), bgr8.ptr<uint8_t>(0), bgr8.cols, bgr8.rows, bgr8.step);
 }
 
 void writeDeltaEExr(const fs::path& p, const cv::Mat& dE, const cv::Mat& valid, const json& meta) {

@@ -54,11 +54,10 @@ float srgbToLinear(float v) {
 
 namespace {
 
-template <class T>
-void requireRgb(const Image<T>& img, const char* who) {
+void requireRgb(const ImageF& img, const char* who) {
   if (img.channels != 3 || img.width <= 0 || img.height <= 0 ||
       img.data.size() != size_t(img.width) * img.height * 3)
-    throw std::logic_error(std::string(who) + ": expected a non-empty 3-channel image, got " +
+    throw std::logic_error(std::string(who) + ": expected a non-empty 3-channel linear RGB image, got " +
                            std::to_string(img.width) + "x" + std::to_string(img.height) + "x" +
                            std::to_string(img.channels));
 }
@@ -134,10 +133,11 @@ void writePngGray8(const std::string& path, const Image<uint8_t>& img) {
   writePng(path, m);
 }
 
-void writePngBgr8(const std::string& path, const Image<uint8_t>& bgr) {
-  requireRgb(bgr, "writePngBgr8");
-  cv::Mat m(bgr.height, bgr.width, CV_8UC3, const_cast<uint8_t*>(bgr.data.data()));
-  writePng(path, m);
+void writePngBgr8(const std::string& path, const uint8_t* bgr, int width, int height, size_t row_bytes) {
+  if (!bgr || width <= 0 || height <= 0 || row_bytes < size_t(width) * 3)
+    throw std::logic_error("writePngBgr8: expected a non-empty 8-bit BGR image");
+  // The Mat header only wraps the buffer; imencode reads it, never writes.
+  writePng(path, cv::Mat(height, width, CV_8UC3, const_cast<uint8_t*>(bgr), row_bytes));
 }
 
 void writePngGray16(const std::string& path, const Image<uint16_t>& img) {

@@ -22,8 +22,9 @@ void writePngRgb8(const std::string& path, const ImageF& linear_rgb, const uint6
 void writePngRgb16(const std::string& path, const ImageF& linear_rgb);
 void writePngGray8(const std::string& path, const Image<uint8_t>& img);
 void writePngGray16(const std::string& path, const Image<uint16_t>& img);
-// 8-bit colour as it is, channels in OpenCV's order (blue, green, red): the contact sheet.
-void writePngBgr8(const std::string& path, const Image<uint8_t>& bgr);
+// 8-bit colour as it is, channels in OpenCV's order (blue, green, red), rows `row_bytes` apart
+// (a cv::Mat's data and step): the contact sheet and compare's pictures.
+void writePngBgr8(const std::string& path, const uint8_t* bgr, int width, int height, size_t row_bytes);
 
 // One named layer of an EXR: channel names are "<layer>.<suffix>" (e.g. "normal.X"); the layer
 // named "" gives plain "R", "G", "B".

@@ -267,6 +267,9 @@ namespace {
 // its manifest, which they would refuse as someone else's (it happened to about half of the runs of
 // eight shards started together). Returns false, leaving nothing behind, where the folder could not
 // be made this way: another shard made it first, or it cannot be renamed onto (a mount point).
+// The dataset's subfolders (docs/output.md).
+constexpr const char* kSubfolders[] = {"images", "masks", "samples"};
+
 bool createDatasetFolder(const fs::path& out, const std::string& manifest_text) {
   std::error_code ec;
   const fs::path parent = out.has_parent_path() ? out.parent_path() : fs::path(".");
@@ -275,7 +278,7 @@ bool createDatasetFolder(const fs::path& out, const std::string& manifest_text) 
   const fs::path tmp = parent / (".tmp-" + std::to_string(::getpid()) + "-" + out.filename().string());
   fs::remove_all(tmp, ec);
   bool made = fs::create_directory(tmp, ec);
-  for (const char* sub : {"images", "masks", "samples"}) made = made && fs::create_directory(tmp / sub, ec);
+  for (const char* sub : kSubfolders) made = made && fs::create_directory(tmp / sub, ec);
   if (!made) {
     fs::remove_all(tmp, ec);
     throw InputError(out.string(), "cannot create the output folder: " + ec.message());
@@ -299,6 +302,13 @@ int64_t countSampleFiles(const fs::path& out) {
   return n;
 }
 
+// The end of the message of a run stopped at a sample: every file is written whole or not at all,
+// so what is there is a valid part of the dataset.
+std::string keptSoFar(int rendered) {
+  return "; the " + std::to_string(rendered) + " sample(s) written before it are kept and --resume continues "
+         "the dataset";
+}
+
 // The temporaries that a killed run left in the dataset's folders (`.tmp-PID-NAME`, renamed
 // into place only when whole). A live run on another host that shares the folder cannot be told
 // from a dead one by its PID, so only files untouched for an hour are taken: no file of ours takes
@@ -306,7 +316,7 @@ int64_t countSampleFiles(const fs::path& out) {
 int removeAbandonedTemporaries(const fs::path& out) {
   int n = 0;
   const auto now = fs::file_time_type::clock::now();
-  for (const char* sub : {"images", "masks", "samples"}) {
+  for (const char* sub : kSubfolders) {
     std::error_code ec;
     for (fs::directory_iterator it(out / sub, ec), end; !ec && it != end; it.increment(ec)) {
       if (it->path().filename().string().compare(0, 5, ".tmp-") != 0) continue;
@@ -397,7 +407,7 @@ GenerateResult runGenerate(const GenerateOptions& o) {
                                      "or remove the folder to start again");
   }
   if (!made) {  // an existing dataset, or an empty folder that could not be renamed onto
-    for (const char* sub : {"images", "masks", "samples"}) {
+    for (const char* sub : kSubfolders) {
       std::error_code ec;
       fs::create_directories(out / sub, ec);
       if (ec) throw InputError(out.string(), "cannot create the output folder: " + ec.message());
@@ -442,15 +452,11 @@ GenerateResult runGenerate(const GenerateOptions& o) {
                                   {"fallbacks", f.stats.groove_fallbacks}};
       writeSampleFiles(out, ds.config, s, f, t);
     } catch (const WriteError& e) {
-      throw WriteError("", std::string(e.what()) + "; the " + std::to_string(res.rendered) +
-                               " sample(s) written before it are kept and --resume continues the dataset");
+      throw WriteError("", std::string(e.what()) + keptSoFar(res.rendered));
     } catch (const std::bad_alloc&) {
-      // Every file is written whole or not at all, so what is there is a valid part of the dataset.
       const MemoryLimit lim = memoryLimit();
       throw InputError(cfg.file, "ran out of memory while rendering sample " + idName(i) + " (" + lim.source +
-                                     ": " + formatBytes(lim.total) + "); the " +
-                                     std::to_string(res.rendered) +
-                                     " sample(s) written before it are kept and --resume continues the dataset");
+                                     ": " + formatBytes(lim.total) + ")" + keptSoFar(res.rendered));
     }
     per_sample.push_back(t);
     ++res.rendered;

@@ -1033,8 +1033,7 @@ Config parseConfig(const std::string& text, const std::string& file, std::vector
   YAML::Node doc;
   try {
     // All the documents: YAML::Load would read the first and drop the rest without a word (a
-    // second config appended after `---`).
-    // An empty document (a '---' at the end) is let pass.
+    // second config appended after `---`). An empty one (a '---' at the end) is let pass.
     std::vector<YAML::Node> docs = YAML::LoadAll(text);
     for (size_t k = 1; k < docs.size(); ++k)
       if (!docs[k].IsNull())

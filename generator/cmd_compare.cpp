@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "generator/cli_checks.h"
 #include "generator/commands.h"
 #include "labels/compare.h"
 
@@ -24,7 +25,7 @@ struct CompareFlags {
   std::string filters = "paper", mask, pairs;
   std::vector<std::string> reg;
   double spd = 0, dpi = 0, pitch = 0, distance = 0;
-  int observer = 2;
+  std::string observer = "2";
   CLI::Option *oSpd = nullptr, *oDpi = nullptr, *oPitch = nullptr, *oDistance = nullptr;
 };
 
@@ -69,12 +70,12 @@ CompareRequest buildRequest(const CompareFlags& f) {
   else
     throw InputError("--filters", "expected paper or isetcam, got '" + f.filters + "'");
 
-  if (f.observer == 2)
+  if (f.observer == "2")
     o.metric.observer = color::Observer::Deg2;
-  else if (f.observer == 10)
+  else if (f.observer == "10")
     o.metric.observer = color::Observer::Deg10;
   else
-    throw InputError("--observer", "expected 2 or 10, got " + std::to_string(f.observer));
+    throw InputError("--observer", "expected 2 or 10, got '" + f.observer + "'");
 
   o.viewing = resolveViewingGeometry(valueOrNan(f.oSpd, f.spd, "--samples-per-degree"),
                                      valueOrNan(f.oDpi, f.dpi, "--dpi"), valueOrNan(f.oPitch, f.pitch, "--pixel-pitch-mm"),
@@ -148,10 +149,10 @@ void addCompareCommand(CLI::App& app) {
   c->add_option("--out", f->out, "Output folder (default: compare_out)");
   c->add_option("--metric", f->metric, "scielab (default), ycxcz or cielab");
   c->add_option("--delta-e", f->deltaE, "Colour difference: 1976 (default), 94 or 2000");
-  f->oSpd = c->add_option("--samples-per-degree", f->spd, "Pixels per degree of visual angle (spatial metrics)");
-  f->oDpi = c->add_option("--dpi", f->dpi, "Display resolution; with --distance-mm");
-  f->oPitch = c->add_option("--pixel-pitch-mm", f->pitch, "Size of one pixel on the object, mm; with --distance-mm");
-  f->oDistance = c->add_option("--distance-mm", f->distance, "Viewing (working) distance, mm");
+  f->oSpd = c->add_option("--samples-per-degree", f->spd, "Pixels per degree of visual angle (spatial metrics)")->check(finiteNumber());
+  f->oDpi = c->add_option("--dpi", f->dpi, "Display resolution; with --distance-mm")->check(finiteNumber());
+  f->oPitch = c->add_option("--pixel-pitch-mm", f->pitch, "Size of one pixel on the object, mm; with --distance-mm")->check(finiteNumber());
+  f->oDistance = c->add_option("--distance-mm", f->distance, "Viewing (working) distance, mm")->check(finiteNumber());
   CLI::Option* reg =
       c->add_option("--register", f->reg, "none (default; sizes must match), auto (AKAZE + RANSAC + ECC) or points FILE")
           ->expected(1, 2)

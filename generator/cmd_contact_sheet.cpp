@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "core/fsutil.h"
+#include "generator/cli_checks.h"
 #include "generator/commands.h"
 #include "labels/classes.h"
 #include "labels/image_io.h"
@@ -112,10 +113,10 @@ void addContactSheetCommand(CLI::App& app) {
   auto* c = app.add_subcommand("contact-sheet", "Grid of a dataset's images with the masks overlaid");
   c->add_option("dataset", o->dir, "Dataset folder written by generate")->required();
   c->add_option("--out", o->out, "Output PNG (default: DATASET/contact_sheet.png)");
-  c->add_option("--columns", o->columns, "Images per row")->check(CLI::Range(1, 64));
-  c->add_option("--thumb", o->thumb, "Width of each image in pixels")->check(CLI::Range(16, 4096));
+  c->add_option("--columns", o->columns, "Images per row")->check(wholeNumberIn(1, 64));
+  c->add_option("--thumb", o->thumb, "Width of each image in pixels")->check(wholeNumberIn(16, 4096));
   c->add_option("--max", o->max_images, "Show the first N images, in name order (default 100)")
-      ->check(CLI::Range(1, 10000));
+      ->check(wholeNumberIn(1, 10000));
   c->callback([o] {
     std::string out = o->out.empty() ? (fs::path(o->dir) / "contact_sheet.png").string() : o->out;
     const size_t total = makeContactSheet(o->dir, out, o->columns, o->thumb, o->max_images);

@@ -11,30 +11,10 @@
 #include "core/error.h"
 #include "core/memory.h"
 #include "core/version.h"
+#include "generator/cli_checks.h"
 #include "generator/commands.h"
 #include "generator/config.h"
 #include "generator/runner.h"
-
-namespace {
-// A number in [lo, hi], NaN and infinities refused (CLI::Range lets NaN through: no comparison
-// with it is true), with the bounds written as the docs write them.
-CLI::Validator finiteRange(double lo, double hi) {
-  auto g = [](double v) {
-    std::ostringstream s;
-    s << v;
-    return s.str();
-  };
-  const std::string want = "a number from " + g(lo) + " to " + g(hi);
-  return CLI::Validator(
-      [=](std::string& text) {
-        double v = 0;
-        if (!CLI::detail::lexical_cast(text, v) || !std::isfinite(v) || v < lo || v > hi)
-          return "expected " + want + ", got " + text;
-        return std::string();
-      },
-      want);
-}
-}  // namespace
 
 int main(int argc, char** argv) {
   using namespace dg;
@@ -55,15 +35,15 @@ int main(int argc, char** argv) {
   auto* g = app.add_subcommand("generate", "Render a dataset from a config");
   g->add_option("config", gen.config_path, "YAML config")->required();
   g->add_option("--out", gen.out_dir, "Output folder (default: out/<config name>)");
-  auto* o_count = g->add_option("--count", count, "Number of samples (overrides the config)")->check(CLI::Range(int64_t(1), int64_t(10000000)));
+  auto* o_count = g->add_option("--count", count, "Number of samples (overrides the config)")->check(wholeNumberIn(1, 10000000));
   // The config's range for `seed` (docs/config.md).
-  auto* o_seed = g->add_option("--seed", seed, "Seed (overrides the config)")->check(CLI::Range(int64_t(0), int64_t(1000000000000000)));
-  g->add_option("--threads", gen.threads, "Worker threads (default: all cores)")->check(CLI::Range(0, 1024));
+  auto* o_seed = g->add_option("--seed", seed, "Seed (overrides the config)")->check(wholeNumberIn(0, 1000000000000000));
+  g->add_option("--threads", gen.threads, "Worker threads (default: all cores)")->check(wholeNumberIn(0, 1024));
   g->add_option("--shard", shard, "Render only samples i with i % N == K, as K/N");
   g->add_flag("--resume", gen.resume, "Continue an interrupted run: skip complete samples");
   g->add_flag("--quiet", gen.quiet, "No progress output");
-  auto* o_spp = g->add_option("--spp", spp, "Samples per pixel (overrides the config)")->check(CLI::Range(1, 65536));
-  auto* o_scale = g->add_option("--scale", scale, "Scale the resolution (quick previews)")->check(finiteRange(0.01, 16.0));
+  auto* o_spp = g->add_option("--spp", spp, "Samples per pixel (overrides the config)")->check(wholeNumberIn(1, 65536));
+  auto* o_scale = g->add_option("--scale", scale, "Scale the resolution (quick previews)")->check(numberIn(0.01, 16.0));
 
   std::string validate_path;
   auto* v = app.add_subcommand("validate", "Check a config and print it resolved, with every default and unit");

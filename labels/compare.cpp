@@ -384,8 +384,11 @@ double samplesPerDegreeFromPitch(double pitchMm, double distanceMm) {
 ViewingGeometry resolveViewingGeometry(double spd, double dpi, double pitch, double dist) {
   auto given = [](double v) { return !std::isnan(v); };
   auto positive = [](const char* name, double v) {
-    if (!(v > 0) || !std::isfinite(v))
-      throw InputError(name, "must be a positive number, got " + fmt(v, 6));
+    if (!(v > 0) || !std::isfinite(v)) {
+      std::ostringstream s;
+      s << v;  // as the user wrote it ("0", "-3"), not in fixed notation
+      throw InputError(name, "must be a positive number, got " + s.str());
+    }
   };
   const int forms = int(given(spd)) + int(given(dpi)) + int(given(pitch));
   if (forms > 1)

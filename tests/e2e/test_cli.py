@@ -427,7 +427,13 @@ defects:
         self.expect_error(["generate", cfg, "--out", out, "--shard", "x"], "--shard", out=out)
         # Flag errors found by the parser are one line too, in the same form.
         self.expect_error(["generate", cfg, "--out", out, "--count", "0"],
-                          "defectgen: error: --count: Value 0 not in range 1 to 10000000 (see --help)", out=out)
+                          "defectgen: error: --count: expected a whole number from 1 to 10000000, got 0 (see --help)",
+                          out=out)
+        # A whole-number flag said "not in range" for text that is not a whole number.
+        self.expect_error(["generate", cfg, "--out", out, "--count", "1e3"],
+                          "--count: expected a whole number from 1 to 10000000, got 1e3", out=out)
+        self.expect_error(["generate", cfg, "--out", out, "--threads", "2.0"],
+                          "--threads: expected a whole number from 0 to 1024, got 2.0", out=out)
         self.expect_error(["generate", cfg, "--out", out, "--bogus"],
                           "defectgen: error: The following argument was not expected: --bogus", out=out)
         # --scale could take a resolution past the config's largest (16 x 2048 = 32768).
@@ -439,7 +445,16 @@ defects:
         self.expect_error(["generate", cfg, "--out", out, "--scale", "nan"],
                           "defectgen: error: --scale: expected a number from 0.01 to 16, got nan", out=out)
         self.expect_error(["generate", cfg, "--out", out, "--seed", "5000000000000000"],
-                          "--seed: Value 5000000000000000 not in range 0 to 1000000000000000", out=out)
+                          "--seed: expected a whole number from 0 to 1000000000000000, got 5000000000000000", out=out)
+        # compare's numbers were CLI11's "Could not convert: --dpi = abc" and "got 0.000000".
+        img = os.path.join(ARGS.source, "docs", "img", "hail_hood.png")
+        cmp_out = os.path.join(d, "cmp")
+        self.expect_error(["compare", img, img, "--out", cmp_out, "--dpi", "abc"],
+                          "defectgen: error: --dpi: expected a number, got abc (see --help)", out=cmp_out)
+        self.expect_error(["compare", img, img, "--out", cmp_out, "--samples-per-degree", "0"],
+                          "--samples-per-degree: must be a positive number, got 0", out=cmp_out)
+        self.expect_error(["compare", img, img, "--out", cmp_out, "--observer", "abc"],
+                          "--observer: expected 2 or 10, got 'abc'", out=cmp_out)
 
     def test_output_paths_that_cannot_be_written(self):
         # Both were internal errors (exit 1): a folder that cannot be made, and contact-sheet's PNG.

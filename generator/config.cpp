@@ -1026,6 +1026,29 @@ void expandMergeKeys(YAML::Node n, const std::string& file, int depth = 0) {
   for (auto it = n.begin(); it != n.end(); ++it) expandMergeKeys(it->second, file, depth + 1);
 }
 
+// Explicit tags ('!!str 5', '!include part.yaml', '!ENV ...') were dropped without a word: each
+// value is read by its field's type, so '!!str 20' became the number 20 and a '!include' its bare
+// file name. A tag is refused where it stands. yaml-cpp gives "?" to an untagged node and "!" to a
+// quoted scalar.
+void refuseTags(const YAML::Node& n, const std::string& file, int depth = 0) {
+  if (depth > 256) return;  // aliases can make the tree deeper than the text, never wider
+  const std::string& tag = n.Tag();
+  if (!tag.empty() && tag != "?" && tag != "!") {
+    const std::string core = "tag:yaml.org,2002:";
+    const std::string shown = tag.rfind(core, 0) == 0 ? "!!" + tag.substr(core.size()) : tag;
+    throw InputError(file, n.Mark().line + 1, n.Mark().column + 1,
+                     "YAML tag '" + shown + "' is not supported: each value is read as its field's type, "
+                     "so write it without the tag (an include or environment tag has no meaning here)");
+  }
+  if (n.IsSequence())
+    for (const YAML::Node& c : n) refuseTags(c, file, depth + 1);
+  else if (n.IsMap())
+    for (auto it = n.begin(); it != n.end(); ++it) {
+      refuseTags(it->first, file, depth + 1);
+      refuseTags(it->second, file, depth + 1);
+    }
+}
+
 }  // namespace
 
 Config parseConfig(const std::string& text, const std::string& file, std::vector<InputError>* all_errors) {
@@ -1045,6 +1068,7 @@ Config parseConfig(const std::string& text, const std::string& file, std::vector
     throw InputError(file, e.mark.line + 1, e.mark.column + 1, "malformed YAML: " + e.msg);
   }
   if (!doc.IsMap()) throw InputError(file, 1, 1, "expected a YAML mapping at the top level (part, camera, lights, ...)");
+  refuseTags(doc, file);
   refuseDuplicateKeys(doc, file);
   expandMergeKeys(doc, file);
   Config c;
@@ -1286,7 +1310,8 @@ std::string configReferenceMarkdown() {
        "lengths millimetres, colours linear Rec.709 RGB. `defectgen validate CONFIG` prints the "
        "resolved config with every default and unit. An unknown key, a value out of its range and a key "
        "given twice in one mapping are refused with their line and column, as is a second YAML "
-       "document after `---` (a config is one). Settings shared by "
+       "document after `---` (a config is one) and a YAML tag such as `!!str` or `!include` (each "
+       "value is read as its field's type). Settings shared by "
        "several lights or defects can be written once with an anchor and merged with YAML's merge "
        "key: after `- &dent {type: dent, radius_mm: 20}`, an entry `- <<: *dent` followed by "
        "`depth_mm: 2` is that dent with its own depth (the entry's own keys win; `<<: [*a, *b]` "

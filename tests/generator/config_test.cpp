@@ -100,6 +100,27 @@ TEST(Config, ASecondDocumentIsRefused) {
   EXPECT_EQ(errorOf("---\n" + std::string(kMinimal)), "");
 }
 
+TEST(Config, YamlTagsAreRefused) {
+  // Each value is read by its field's type, so a tag was dropped without a word ('!!str 40' read
+  // as 40, '!include x.yaml' as its bare file name).
+  const std::string base = kMinimal;
+  auto replaced = [&](const std::string& from, const std::string& to) {
+    std::string t = base;
+    t.replace(t.find(from), from.size(), to);
+    return errorOf(t);
+  };
+  for (const char* tag : {"!!str", "!!float", "!include", "!ENV"}) {
+    const std::string e = replaced("fov_deg: 40", std::string("fov_deg: ") + tag + " 40");
+    EXPECT_NE(e.find(std::string("test.yaml:6:12: YAML tag '") + tag + "' is not supported"), std::string::npos)
+        << tag << ": " << e;
+  }
+  EXPECT_EQ(replaced("fov_deg: 40", "fov_deg: ! 40"), "");  // the non-specific tag, as on a quoted scalar
+  EXPECT_EQ(replaced("fov_deg: 40", "fov_deg: !!int 40").find("test.yaml:6:12: YAML tag '!!int'"), 0u);
+  // On a key and on a mapping too.
+  EXPECT_EQ(replaced("fov_deg: 40", "!!str fov_deg: 40").find("test.yaml:6:3: YAML tag '!!str'"), 0u);
+  EXPECT_EQ(replaced("camera:\n", "camera: !!map\n").find("test.yaml:5:9: YAML tag '!!map'"), 0u);
+}
+
 TEST(Config, MinimalConfigGetsEveryDefault) {
   Config c = parseConfig(kMinimal, "test.yaml");
   EXPECT_EQ(c.root["part"]["type"].str(), "plate");

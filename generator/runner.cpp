@@ -128,6 +128,13 @@ class Progress {
     }
     std::fflush(stderr);
   }
+  // A warning line, printed even with --quiet; on a terminal it first clears the progress bar,
+  // which the next sample draws again.
+  void warn(const std::string& line) const {
+    if (tty_ && !quiet_ && n_ > 0 && n_ < total_) std::fprintf(stderr, "\r%78s\r", "");
+    std::fprintf(stderr, "defectgen: warning: %s\n", line.c_str());
+    std::fflush(stderr);
+  }
 
  private:
   int total_, n_ = 0;
@@ -435,6 +442,7 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   Progress prog(int(todo.size()), o.quiet);
   json per_sample = json::array();
   double render_total = 0;
+  int64_t no_part = 0;  // samples whose camera does not see the part
   for (uint64_t i : todo) {
     auto t0 = Clock::now();
     const bool was_kept = kept && i == mine.front();
@@ -450,6 +458,20 @@ GenerateResult runGenerate(const GenerateOptions& o) {
         t["groove_footprints"] = {{"sections", f.stats.groove_sections},
                                   {"polygons", f.stats.groove_polygons},
                                   {"fallbacks", f.stats.groove_fallbacks}};
+      if (!f.stats.part_in_view && ++no_part == 1) {
+        // A camera that looks past the part renders an image of the lights alone, with no labels:
+        // most likely a config mistake, said once (and counted at the end).
+        auto point = [](const json& v) {
+          char buf[96];
+          std::snprintf(buf, sizeof buf, "[%g, %g, %g]", v.at(0).get<double>() + 0.0, v.at(1).get<double>() + 0.0,
+                        v.at(2).get<double>() + 0.0);  // + 0.0: no "-0"
+          return std::string(buf);
+        };
+        const json& cam = s.meta.at("camera");
+        prog.warn("sample " + idName(i) + " does not show the part: no camera ray meets it (camera at " +
+                  point(cam.at("position_mm")) + " mm, looking at " + point(cam.at("target_mm")) +
+                  "); check camera.position, camera.target and camera.up in " + cfg.file);
+      }
       writeSampleFiles(out, ds.config, s, f, t);
     } catch (const WriteError& e) {
       throw WriteError("", std::string(e.what()) + keptSoFar(res.rendered));
@@ -486,6 +508,8 @@ GenerateResult runGenerate(const GenerateOptions& o) {
     if (now == present) break;
     present = now;
   }
+  if (no_part > 1)
+    prog.warn(std::to_string(no_part) + " of " + std::to_string(res.rendered) + " rendered samples do not show the part");
   if (!o.quiet)
     std::fprintf(stderr, "defectgen: %d sample(s) rendered, %d skipped, in %.1f s; dataset in %s\n", res.rendered,
                  res.skipped, res.seconds, out.string().c_str());

@@ -1824,6 +1824,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
   Tracer tracer(scene, st);
   const int tx = (W + kTile - 1) / kTile, ty = (H + kTile - 1) / kTile;
   std::atomic<uint64_t> rays{0}, g_sections{0}, g_polygons{0}, g_fallbacks{0};
+  std::atomic<bool> part_in_view{false};
   const int K = std::max(1, st.coverage_grid);
   const int ninst = scene.defects ? int(scene.defects->size()) : 0;
   // Strata for groove rendering: sx * sy = spp with sy the largest divisor <= sqrt(spp).
@@ -1846,6 +1847,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
     int x0 = int(tile % tx) * kTile, y0 = int(tile / tx) * kTile;
     int x1 = std::min(W, x0 + kTile), y1 = std::min(H, y0 + kTile);
     uint64_t local_rays = 0;
+    bool tile_sees_part = false;
     Tracer::takeCounts();  // start this tile's groove counts from zero
     std::vector<uint16_t> counts(size_t(ninst) + 1);
     PixelPattern pads;
@@ -1936,6 +1938,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
               DiffRay r = cameraRay(gen, px, py);
               Hit h = intersect(scene.part->scene(), r.o, r.d, 0.0f, kInf);
               ++local_rays;
+              tile_sees_part = tile_sees_part || h.hit;
               if (!h.hit || h.shell) continue;
               const uint32_t* f = &scene.part->mesh().indices[3 * h.prim];
               const auto& uvs = scene.part->mesh().uvs;
@@ -1958,15 +1961,22 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
           }
           out.dominant(x, y) = best;
           out.coverage(x, y) = best_cov;
+        } else if (!tile_sees_part) {
+          // Without the mask pass, one ray through each pixel centre until one meets the part.
+          DiffRay r = cameraRay(gen, float(x), float(y));
+          ++local_rays;
+          tile_sees_part = intersect(scene.part->scene(), r.o, r.d, 0.0f, kInf).hit;
         }
       }
     rays += local_rays;
+    if (tile_sees_part) part_in_view = true;
     auto gc = Tracer::takeCounts();
     g_sections += gc.sections;
     g_polygons += gc.polygons;
     g_fallbacks += gc.fallbacks;
   });
   out.stats.rays = rays.load();
+  out.stats.part_in_view = part_in_view.load();
   out.stats.groove_sections = g_sections.load();
   out.stats.groove_polygons = g_polygons.load();
   out.stats.groove_fallbacks = g_fallbacks.load();

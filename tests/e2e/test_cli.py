@@ -150,6 +150,36 @@ class Generate(unittest.TestCase):
                 for lib in ("embree", "opencv", "openimageio", "openexr", "cgal"):
                     self.assertIn(lib, man["versions"])
 
+    def test_a_camera_that_misses_the_part_is_warned_about(self):
+        # A camera looking past the part rendered images of the lights alone, with no labels, and
+        # said nothing. Now: one warning naming the first such sample and the camera, and a count.
+        d = work("misses_part")
+        away = SMALL.replace("  position: [{uniform: [-30, 30]}, -40, 420]\n",
+                             "  position: [{uniform: [-30, 30]}, -40, 420]\n  target: [0, 0, 900]\n")
+        self.assertNotEqual(away, SMALL)
+        for name, text in (("with_masks", away), ("no_defects", away.split("defects:")[0] + "defects: []\n")):
+            with self.subTest(name):
+                cfg = os.path.join(d, name + ".yaml")
+                with open(cfg, "w") as f:
+                    f.write(text)
+                out = os.path.join(d, name)
+                p = run("generate", cfg, "--out", out, "--count", "3", "--quiet")
+                warnings = [l for l in p.stderr.splitlines() if "warning" in l]
+                self.assertEqual(len(warnings), 2, p.stderr)
+                self.assertIn("defectgen: warning: sample 000000 does not show the part: no camera ray meets it "
+                              "(camera at [", warnings[0])
+                self.assertIn("looking at [0, 0, 900]); check camera.position, camera.target and camera.up in " + cfg,
+                              warnings[0])
+                self.assertEqual(warnings[1], "defectgen: warning: 3 of 3 rendered samples do not show the part")
+                self.assertEqual(coco_reader.check_dataset(out)["annotations"], 0)
+        # The same camera looking at the plate: no warning, whether with masks or without.
+        for name, text in (("in_view", SMALL), ("in_view_no_defects", SMALL.split("defects:")[0] + "defects: []\n")):
+            cfg = os.path.join(d, name + ".yaml")
+            with open(cfg, "w") as f:
+                f.write(text)
+            p = run("generate", cfg, "--out", os.path.join(d, name), "--count", "2", "--quiet")
+            self.assertNotIn("warning", p.stderr)
+
     def test_dataset_contents(self):
         d = work("contents")
         out = os.path.join(d, "out")

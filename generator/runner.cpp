@@ -442,7 +442,12 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   Progress prog(int(todo.size()), o.quiet);
   json per_sample = json::array();
   double render_total = 0;
-  int64_t no_part = 0;  // samples whose camera does not see the part
+  int64_t no_part = 0, black = 0;  // samples whose camera does not see the part; black images
+  const Value& rnd = ds.config.root["render"];
+  const double gain = std::exp2(rnd["exposure_stops"].num());
+  // Half of the PNG's first code above black, in linear light (the sRGB curve is linear there,
+  // with slope 12.92): an image whose every pixel is below it writes as black.
+  const double black_below = 0.5 / (rnd["png"].str() == "16" ? 65535.0 : 255.0) / 12.92;
   for (uint64_t i : todo) {
     auto t0 = Clock::now();
     const bool was_kept = kept && i == mine.front();
@@ -471,6 +476,17 @@ GenerateResult runGenerate(const GenerateOptions& o) {
         prog.warn("sample " + idName(i) + " does not show the part: no camera ray meets it (camera at " +
                   point(cam.at("position_mm")) + " mm, looking at " + point(cam.at("target_mm")) +
                   "); check camera.position, camera.target and camera.up in " + cfg.file);
+      }
+      if (f.stats.part_in_view && !f.rgb.empty()) {
+        float brightest = 0.0f;
+        for (float v : f.rgb.data) brightest = std::max(brightest, v);  // NaN-safe: max(x, NaN) = x
+        if (brightest * gain < black_below && ++black == 1) {
+          char buf[64];
+          std::snprintf(buf, sizeof buf, "%.2g", brightest * gain);
+          prog.warn("sample " + idName(i) + " is black: its brightest pixel, " + buf +
+                    " after render.exposure_stops, is below the PNG's first code; check the lights' positions, "
+                    "directions and radiance, and render.exposure_stops, in " + cfg.file);
+        }
       }
       writeSampleFiles(out, ds.config, s, f, t);
     } catch (const WriteError& e) {
@@ -510,6 +526,7 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   }
   if (no_part > 1)
     prog.warn(std::to_string(no_part) + " of " + std::to_string(res.rendered) + " rendered samples do not show the part");
+  if (black > 1) prog.warn(std::to_string(black) + " of " + std::to_string(res.rendered) + " rendered samples are black");
   if (!o.quiet)
     std::fprintf(stderr, "defectgen: %d sample(s) rendered, %d skipped, in %.1f s; dataset in %s\n", res.rendered,
                  res.skipped, res.seconds, out.string().c_str());

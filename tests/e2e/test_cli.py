@@ -180,6 +180,35 @@ class Generate(unittest.TestCase):
             p = run("generate", cfg, "--out", os.path.join(d, name), "--count", "2", "--quiet")
             self.assertNotIn("warning", p.stderr)
 
+    def test_a_black_image_is_warned_about(self):
+        # Lights that send nothing to the camera (here: none that shines, or an exposure far too
+        # low) gave black images without a word.
+        d = work("black")
+        dark = SMALL.replace("    radiance: [0.3, 0.3, 0.3]", "    radiance: [0, 0, 0]").replace(
+            "    radiance: [60, 60, 60]", "    radiance: [0, 0, 0]")
+        low = SMALL.replace("  exr: true", "  exr: true\n  exposure_stops: -20")
+        self.assertNotEqual(dark, SMALL)
+        self.assertNotEqual(low, SMALL)
+        for name, text in (("dark", dark), ("low", low)):
+            with self.subTest(name):
+                cfg = os.path.join(d, name + ".yaml")
+                with open(cfg, "w") as f:
+                    f.write(text)
+                p = run("generate", cfg, "--out", os.path.join(d, name), "--count", "2", "--quiet")
+                warnings = [l for l in p.stderr.splitlines() if "warning" in l]
+                self.assertEqual(len(warnings), 2, p.stderr)
+                self.assertTrue(warnings[0].startswith("defectgen: warning: sample 000000 is black: its brightest "
+                                                       "pixel, "), warnings[0])
+                self.assertTrue(warnings[0].endswith("after render.exposure_stops, is below the PNG's first code; "
+                                                     "check the lights' positions, directions and radiance, and "
+                                                     "render.exposure_stops, in " + cfg), warnings[0])
+                self.assertEqual(warnings[1], "defectgen: warning: 2 of 2 rendered samples are black")
+        # At -8 stops SMALL is dim but not black.
+        dim = os.path.join(d, "dim.yaml")
+        with open(dim, "w") as f:
+            f.write(SMALL.replace("  exr: true", "  exr: true\n  exposure_stops: -8"))
+        self.assertNotIn("warning", run("generate", dim, "--out", os.path.join(d, "dim"), "--count", "1").stderr)
+
     def test_dataset_contents(self):
         d = work("contents")
         out = os.path.join(d, "out")

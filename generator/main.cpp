@@ -1,5 +1,6 @@
 // defectgen command line: generate, validate, compare, config-reference.
 #include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -15,6 +16,18 @@
 #include "generator/commands.h"
 #include "generator/config.h"
 #include "generator/runner.h"
+
+namespace {
+// Not a bug but a request larger than the machine: generate checks its frame beforehand
+// (core/memory.h) and names the sample it was on; anything else that runs out ends here.
+int outOfMemory(const CLI::App& app) {
+  const dg::MemoryLimit lim = dg::memoryLimit();
+  const std::string cmd = app.get_subcommands().empty() ? "defectgen" : app.get_subcommands().front()->get_name();
+  std::fprintf(stderr, "defectgen: error: %s ran out of memory (%s: %s)\n", cmd.c_str(), lim.source.c_str(),
+               dg::formatBytes(lim.total).c_str());
+  return dg::kExitInputError;
+}
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace dg;
@@ -120,13 +133,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "defectgen: error: %s\n", e.what());  // InputError: already one line
     return kExitInputError;
   } catch (const std::bad_alloc&) {
-    // Not a bug but a request larger than the machine: generate checks its frame beforehand
-    // (core/memory.h) and names the sample it was on; anything else that runs out ends here.
-    const MemoryLimit lim = memoryLimit();
-    const std::string cmd = app.get_subcommands().empty() ? "defectgen" : app.get_subcommands().front()->get_name();
-    std::fprintf(stderr, "defectgen: error: %s ran out of memory (%s: %s)\n", cmd.c_str(), lim.source.c_str(),
-                 formatBytes(lim.total).c_str());
-    return kExitInputError;
+    return outOfMemory(app);
+  } catch (const cv::Exception& e) {
+    // OpenCV reports a failed allocation as its own exception (compare on large images).
+    if (e.code == cv::Error::StsNoMem) return outOfMemory(app);
+    std::fprintf(stderr, "defectgen: internal error: %s\n", withoutControlCharacters(e.what()).c_str());
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "defectgen: internal error: %s\n", withoutControlCharacters(e.what()).c_str());
     return 1;

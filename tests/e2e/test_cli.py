@@ -14,6 +14,7 @@ import subprocess
 import sys
 import time
 import unittest
+import zlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
@@ -554,6 +555,20 @@ defects:
         # ... and what no check foresees (here the cutting itself) ends in one message too.
         self.expect_error(["generate", cut, "--out", out, "--quiet"], "generate ran out of memory (ulimit -v: 1.5 GiB)",
                           out=out, address_space=3 << 29)
+        # compare on images too large for the memory left: OpenCV's own out-of-memory error was
+        # "internal error: OpenCV(4.6.0) ... Insufficient memory" with exit 1.
+        w, h = 6000, 6000
+        row = b"\x00" + bytes((7 * x) & 255 for x in range(3 * w))
+        raw = zlib.compress(row * h, 1)
+        chunk = lambda t, b: struct.pack(">I", len(b)) + t + b + struct.pack(">I", zlib.crc32(t + b) & 0xFFFFFFFF)
+        img = os.path.join(d, "large.png")
+        with open(img, "wb") as f:
+            f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) +
+                    chunk(b"IDAT", raw) + chunk(b"IEND", b""))
+        cmp_out = os.path.join(d, "cmp")
+        self.expect_error(["compare", img, img, "--out", cmp_out], "compare: reference 6000x6000 sRGB 8-bit",
+                          "defectgen: error: compare ran out of memory (ulimit -v: 1000 MiB)",
+                          out=cmp_out, lines=3, address_space=1000 << 20)  # it reads them, then runs out
 
     def test_frame_memory_estimate_follows_the_peak(self):
         # The estimate behind that check against the peak RSS it stands for, as the growth from

@@ -1286,9 +1286,10 @@ std::string describeConfig(const Config& c) {
   return o.str();
 }
 
-std::string Config::hash() const {
-  // FNV-1a 64 over the resolved description (not the raw bytes, so comments and key order do not
-  // matter but every value, including defaults, does).
+namespace {
+// FNV-1a 64 over the resolved description (not the raw bytes, so comments and key order do not
+// matter but every value, including defaults, does).
+std::string hashOf(const Value& root) {
   std::ostringstream o;
   describe(root, 0, o);
   std::string s = o.str();
@@ -1300,6 +1301,16 @@ std::string Config::hash() const {
   std::ostringstream hx;
   hx << std::hex << std::setw(16) << std::setfill('0') << h;
   return hx.str();
+}
+}  // namespace
+
+std::string Config::hash() const { return hashOf(root); }
+
+std::string Config::sceneHash() const {
+  Value r = root;
+  r.members.erase("count");
+  r.member_order.erase(std::remove(r.member_order.begin(), r.member_order.end(), "count"), r.member_order.end());
+  return hashOf(r);
 }
 
 std::string configReferenceMarkdown() {

@@ -79,6 +79,9 @@ struct Config {
   std::string text;   // its bytes (hashed into the manifest)
   Value root;
   std::string hash() const;  // hex digest of the resolved config
+  // The same without `count`: what each sample's bytes depend on besides the seed and its index,
+  // so a dataset can be grown (generate --resume with a larger --count).
+  std::string sceneHash() const;
 };
 
 // Loads and validates a config. Throws InputError with file:line:column for every problem.

@@ -384,8 +384,10 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   out = out.lexically_normal();
   if (!out.has_filename() && out.has_parent_path()) out = out.parent_path();  // "data/" -> "data"
   std::string hash = ds.config.hash();
+  const std::string scene_hash = ds.config.sceneHash();
   json manifest = {{"config_file", o.config_path},
                    {"config_hash", hash},
+                   {"scene_hash", scene_hash},
                    {"seed", seed},
                    {"count", count},
                    {"versions", libraryVersions()}};
@@ -394,11 +396,16 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   if (!made && fs::is_directory(out) && !fs::is_empty(out)) {
     fs::path man = out / "manifest.json";
     bool same = false;
+    int64_t had = -1;  // the count of a dataset of this config and seed with another count
     if (fs::is_regular_file(man)) {
       try {
         json m = json::parse(readTextFile(man));
         same = m.value("config_hash", "") == hash && m.value("seed", uint64_t(0)) == seed &&
                m.value("count", int64_t(-1)) == count;
+        // Sample i is a function of the seed and i alone, so a larger count adds samples to the
+        // same dataset (manifests before 2026-11-27 have no scene_hash: not grown).
+        if (!same && m.value("scene_hash", "") == scene_hash && m.value("seed", uint64_t(0)) == seed)
+          had = m.value("count", int64_t(-1));
       } catch (const json::exception& e) {
         // defectgen writes it whole or not at all (renamed into place), so something else changed it.
         throw InputError(man.string(), std::string("not a readable manifest (") + e.what() +
@@ -406,7 +413,18 @@ GenerateResult runGenerate(const GenerateOptions& o) {
                                            "choose another --out");
       }
     }
-    if (!same)
+    if (had > count)
+      throw InputError(out.string(), "output folder holds " + std::to_string(had) +
+                                         " samples of this config and seed; a count of " + std::to_string(count) +
+                                         " would leave samples out of it (a dataset grows, it does not shrink): "
+                                         "pass --count " + std::to_string(had) +
+                                         " or more, or choose another --out");
+    if (had >= 0 && !o.resume)
+      throw InputError(out.string(), "output folder holds " + std::to_string(had) +
+                                         " samples of this config and seed; pass --resume to add samples " +
+                                         std::to_string(had) + " to " + std::to_string(count - 1) +
+                                         " to it, or remove the folder to start again");
+    if (!same && had < 0)
       throw InputError(out.string(), "output folder is not empty and holds no dataset of this config, seed and "
                                      "count; choose another --out or remove the folder");
     if (!o.resume && o.shard_count == 1)

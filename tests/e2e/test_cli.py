@@ -210,6 +210,36 @@ class Generate(unittest.TestCase):
             f.write(SMALL.replace("  exr: true", "  exr: true\n  exposure_stops: -8"))
         self.assertNotIn("warning", run("generate", dim, "--out", os.path.join(d, "dim"), "--count", "1").stderr)
 
+    def test_a_dataset_grows_with_resume_and_a_larger_count(self):
+        # A larger --count with --resume adds samples to a dataset: the folder then holds the same
+        # bytes as one run with that count (sample i depends on the seed and i alone). Before, any
+        # other count was "holds no dataset of this config, seed and count".
+        d = work("grow")
+        cfg = self.small_config(d)
+        grown, whole = os.path.join(d, "grown"), os.path.join(d, "whole")
+        run("generate", cfg, "--out", grown, "--count", "2", "--quiet")
+        p = run("generate", cfg, "--out", grown, "--count", "4", ok=False)
+        self.assertEqual(p.returncode, 2)
+        self.assertEqual(p.stderr, "defectgen: error: %s: output folder holds 2 samples of this config and seed; pass "
+                         "--resume to add samples 2 to 3 to it, or remove the folder to start again\n" % grown)
+        p = run("generate", cfg, "--out", grown, "--count", "4", "--resume")
+        self.assertIn("2 sample(s) rendered, 2 skipped", p.stderr)
+        run("generate", cfg, "--out", whole, "--count", "4", "--quiet")
+        assert_same_tree(self, grown, whole)
+        man = load_json(os.path.join(grown, "manifest.json"))
+        self.assertEqual((man["count"], man["samples_complete"]), (4, 4))
+        self.assertEqual(man["config_hash"], load_json(os.path.join(whole, "manifest.json"))["config_hash"])
+        # It does not shrink, and another seed or scene is another dataset.
+        p = run("generate", cfg, "--out", grown, "--count", "3", "--resume", ok=False)
+        self.assertEqual(p.returncode, 2)
+        self.assertIn("output folder holds 4 samples of this config and seed; a count of 3 would leave samples out "
+                      "of it", p.stderr)
+        for other in (["--seed", "12"], ["--spp", "1"]):
+            p = run("generate", cfg, "--out", grown, "--count", "6", "--resume", *other, ok=False)
+            self.assertEqual(p.returncode, 2)
+            self.assertIn("holds no dataset of this config, seed and count", p.stderr)
+        assert_same_tree(self, grown, whole)
+
     def test_dataset_contents(self):
         d = work("contents")
         out = os.path.join(d, "out")

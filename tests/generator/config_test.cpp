@@ -121,6 +121,19 @@ TEST(Config, YamlTagsAreRefused) {
   EXPECT_EQ(replaced("camera:\n", "camera: !!map\n").find("test.yaml:5:9: YAML tag '!!map'"), 0u);
 }
 
+TEST(Config, SceneHashLeavesOutTheCountAlone) {
+  const std::string base = kMinimal;
+  const Config a = parseConfig("count: 3\n" + base, "test.yaml");
+  const Config b = parseConfig("count: 7\n" + base, "test.yaml");
+  const Config c = parseConfig("count: 3\nseed: 9\n" + base, "test.yaml");
+  const Config d = parseConfig("count: 3\n" + base + "render: {spp: 4}\n", "test.yaml");
+  EXPECT_NE(a.hash(), b.hash());
+  EXPECT_EQ(a.sceneHash(), b.sceneHash());
+  EXPECT_NE(a.sceneHash(), c.sceneHash());  // the seed is part of it (generate also compares it)
+  EXPECT_NE(a.sceneHash(), d.sceneHash());
+  EXPECT_NE(a.sceneHash(), a.hash());
+}
+
 TEST(Config, MinimalConfigGetsEveryDefault) {
   Config c = parseConfig(kMinimal, "test.yaml");
   EXPECT_EQ(c.root["part"]["type"].str(), "plate");

@@ -683,11 +683,19 @@ class Parser {
           std::filesystem::path p(n.Scalar());
           if (p.is_relative()) p = std::filesystem::path(file_).parent_path() / p;
           std::error_code ec;
-          if (!std::filesystem::is_regular_file(p, ec))
+          if (!std::filesystem::is_regular_file(p, ec)) {
+            const bool missing = !std::filesystem::exists(p, ec);
+            // A shell would have expanded these; a config is not read by one.
+            const std::string& given = n.Scalar();
+            const bool shellish = !given.empty() && (given[0] == '~' || given.find('$') != std::string::npos);
             fail(n, where(path) + (std::filesystem::is_directory(p, ec) ? ": is a folder, expected a file: "
-                                   : std::filesystem::exists(p, ec)    ? ": is not a regular file: "
-                                                                       : ": file not found: ") +
-                        p.string());
+                                   : !missing                           ? ": is not a regular file: "
+                                                                        : ": file not found: ") +
+                        p.string() +
+                        (missing && shellish ? " (a config does not expand '~' or $VARIABLES: give the path in "
+                                               "full, or relative to the config file)"
+                                             : ""));
+          }
           v.dist.constant = p.lexically_normal().string();
         }
         break;

@@ -121,6 +121,22 @@ TEST(Config, YamlTagsAreRefused) {
   EXPECT_EQ(replaced("camera:\n", "camera: !!map\n").find("test.yaml:5:9: YAML tag '!!map'"), 0u);
 }
 
+TEST(Config, AShellPathIsExplained) {
+  // '~' and $HOME are the shell's; the path was reported as not found with no hint why.
+  const std::string base = kMinimal;
+  for (const char* given : {"~/parts/door.obj", "$HOME/parts/door.obj", "${PARTS}/door.obj"}) {
+    std::string t = base;
+    t.replace(t.find("type: plate"), 11, std::string("{type: mesh, path: '") + given + "'}");
+    const std::string e = errorOf(t);
+    EXPECT_NE(e.find(std::string("file not found: ") + given + " (a config does not expand '~' or $VARIABLES"),
+              std::string::npos)
+        << e;
+  }
+  std::string t = base;
+  t.replace(t.find("type: plate"), 11, "{type: mesh, path: parts/door.obj}");
+  EXPECT_EQ(errorOf(t).find("expand"), std::string::npos);  // no hint for an ordinary missing file
+}
+
 TEST(Config, SceneHashLeavesOutTheCountAlone) {
   const std::string base = kMinimal;
   const Config a = parseConfig("count: 3\n" + base, "test.yaml");

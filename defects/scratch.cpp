@@ -471,11 +471,14 @@ std::vector<Vec2d> toolGroove(const ToolSpec& tool, double depth) {
   std::vector<P3> pts;
   if (tool.shape == ToolSpec::Shape::Cone) {
     const int na = 720;  // azimuths; 0 and pi are sampled exactly (extremes of an upright cone)
+    std::vector<double> ca(na), sa(na);  // the same for every ring
+    for (int i = 0; i < na; ++i) {
+      double a = 2.0 * kPi * i / na;
+      ca[size_t(i)] = std::cos(a);
+      sa[size_t(i)] = std::sin(a);
+    }
     auto ring = [&](double z, double rho) {
-      for (int i = 0; i < na; ++i) {
-        double a = 2.0 * kPi * i / na;
-        pts.push_back({rho * std::cos(a), rho * std::sin(a), z});
-      }
+      for (int i = 0; i < na; ++i) pts.push_back({rho * ca[size_t(i)], rho * sa[size_t(i)], z});
     };
     if (r > 0) {
       // Spherical tip tangent to the cone: centre at r / sin(g) above the apex, cap up to the
@@ -509,13 +512,13 @@ std::vector<Vec2d> toolGroove(const ToolSpec& tool, double depth) {
   double ax = std::sin(th) * sp, ay = std::sin(th) * cp;
   double kx = -ay, ky = ax;  // z x a (its z component is 0)
   double kl = std::sqrt(kx * kx + ky * ky);
+  const double c = std::cos(th), s = std::sin(th);
   std::vector<Vec2d> proj;
   proj.reserve(pts.size());
   for (const P3& q : pts) {
     double x = q.x, y = q.y, z = q.z;
     if (kl > 1e-15) {
       double ux = kx / kl, uy = ky / kl;  // unit k, uz = 0
-      double c = std::cos(th), s = std::sin(th);
       double kv = ux * x + uy * y;
       // k x v with k = (ux, uy, 0) is (uy z, -ux z, ux y - uy x); t is dropped by the projection.
       double cx = uy * z, cz = ux * y - uy * x;

@@ -51,4 +51,10 @@ CLI::Validator finiteNumber() {
       "a number");
 }
 
+CLI::Validator nonEmptyPath() {
+  return CLI::Validator(
+      [](std::string& text) { return text.empty() ? std::string("expected a path, got an empty one") : std::string(); },
+      "");
+}
+
 }  // namespace dg

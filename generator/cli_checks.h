@@ -20,4 +20,8 @@ CLI::Validator wholeNumberIn(std::int64_t lo, std::int64_t hi);
 // Any finite number (the range is checked where the value is used).
 CLI::Validator finiteNumber();
 
+// A path that is not the empty string (an empty --out fell back to the default folder without a
+// word, an empty --pairs was ignored).
+CLI::Validator nonEmptyPath();
+
 }  // namespace dg

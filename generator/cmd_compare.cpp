@@ -144,9 +144,11 @@ void addCompareCommand(CLI::App& app) {
       "report.json (docs/compare.md)");
   // The images are checked in the callback (they are not needed with --pairs).
   CLI::Option* ref = c->add_option("REFERENCE", f->reference,
-                                   "Reference image: PNG, JPEG, TIFF (8/16-bit sRGB) or EXR (linear)");
-  CLI::Option* tst = c->add_option("TEST", f->test, "Test image, resampled onto the reference when registering");
-  c->add_option("--out", f->out, "Output folder (default: compare_out)");
+                                   "Reference image: PNG, JPEG, TIFF (8/16-bit sRGB) or EXR (linear)")
+                         ->check(nonEmptyPath());
+  CLI::Option* tst = c->add_option("TEST", f->test, "Test image, resampled onto the reference when registering")
+                         ->check(nonEmptyPath());
+  c->add_option("--out", f->out, "Output folder (default: compare_out)")->check(nonEmptyPath());
   c->add_option("--metric", f->metric, "scielab (default), ycxcz or cielab");
   c->add_option("--delta-e", f->deltaE, "Colour difference: 1976 (default), 94 or 2000");
   f->oSpd = c->add_option("--samples-per-degree", f->spd, "Pixels per degree of visual angle (spatial metrics)")->check(finiteNumber());
@@ -158,12 +160,13 @@ void addCompareCommand(CLI::App& app) {
           ->expected(1, 2)
           ->allow_extra_args(false)
           ->type_name("MODE [FILE]");
-  c->add_option("--mask", f->mask, "Mask image of the reference's size: statistics also inside / outside it");
+  c->add_option("--mask", f->mask, "Mask image of the reference's size: statistics also inside / outside it")->check(nonEmptyPath());
   CLI::Option* oFilters = c->add_option("--filters", f->filters, "S-CIELAB filters: paper (default) or isetcam");
   CLI::Option* oObserver =
       c->add_option("--observer", f->observer, "S-CIELAB opponent transform for the 2 (default) or 10 degree observer");
   c->add_option("--pairs", f->pairs,
-                "Batch: CSV with columns reference,test[,mask][,points][,name]; writes OUT/<name>/ and OUT/summary.csv");
+                "Batch: CSV with columns reference,test[,mask][,points][,name]; writes OUT/<name>/ and OUT/summary.csv")
+      ->check(nonEmptyPath());
   c->callback([f, c, ref, tst, reg, oFilters, oObserver] {
     std::vector<std::string> images;
     CompareFlags g = *f;

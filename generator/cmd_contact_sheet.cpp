@@ -111,8 +111,8 @@ void addContactSheetCommand(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   auto* c = app.add_subcommand("contact-sheet", "Grid of a dataset's images with the masks overlaid");
-  c->add_option("dataset", o->dir, "Dataset folder written by generate")->required();
-  c->add_option("--out", o->out, "Output PNG (default: DATASET/contact_sheet.png)");
+  c->add_option("dataset", o->dir, "Dataset folder written by generate")->required()->check(nonEmptyPath());
+  c->add_option("--out", o->out, "Output PNG (default: DATASET/contact_sheet.png)")->check(nonEmptyPath());
   c->add_option("--columns", o->columns, "Images per row")->check(wholeNumberIn(1, 64));
   c->add_option("--thumb", o->thumb, "Width of each image in pixels")->check(wholeNumberIn(16, 4096));
   c->add_option("--max", o->max_images, "Show the first N images, in name order (default 100)")

@@ -46,8 +46,8 @@ int main(int argc, char** argv) {
   int spp = 0;
   double scale = 0;
   auto* g = app.add_subcommand("generate", "Render a dataset from a config");
-  g->add_option("config", gen.config_path, "YAML config")->required();
-  g->add_option("--out", gen.out_dir, "Output folder (default: out/<config name>)");
+  g->add_option("config", gen.config_path, "YAML config")->required()->check(nonEmptyPath());
+  g->add_option("--out", gen.out_dir, "Output folder (default: out/<config name>)")->check(nonEmptyPath());
   auto* o_count = g->add_option("--count", count, "Number of samples (overrides the config)")->check(wholeNumberIn(1, 10000000));
   // The config's range for `seed` (docs/config.md).
   auto* o_seed = g->add_option("--seed", seed, "Seed (overrides the config)")->check(wholeNumberIn(0, 1000000000000000));
@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
 
   std::string validate_path;
   auto* v = app.add_subcommand("validate", "Check a config and print it resolved, with every default and unit");
-  v->add_option("config", validate_path, "YAML config")->required();
+  v->add_option("config", validate_path, "YAML config")->required()->check(nonEmptyPath());
 
   auto* ref = app.add_subcommand("config-reference", "Print the config reference (docs/config.md)");
   addCompareCommand(app);

@@ -303,8 +303,9 @@ bool createDatasetFolder(const fs::path& out, const std::string& manifest_text) 
   bool made = fs::create_directory(tmp, ec);
   for (const char* sub : kSubfolders) made = made && fs::create_directory(tmp / sub, ec);
   if (!made) {
+    const std::string why = ec.message();  // before remove_all resets ec ("Success")
     fs::remove_all(tmp, ec);
-    throw InputError(out.string(), "cannot create the output folder: " + ec.message());
+    throw InputError(out.string(), "cannot create the output folder: " + why);
   }
   writeTextAtomically(tmp / "manifest.json", manifest_text);
   fs::rename(tmp, out, ec);

@@ -524,6 +524,14 @@ defects:
                           "--count: expected a whole number from 1 to 10000000, got 1e3", out=out)
         self.expect_error(["generate", cfg, "--out", out, "--threads", "2.0"],
                           "--threads: expected a whole number from 0 to 1024, got 2.0", out=out)
+        # An empty path fell back to the default (--out), was ignored (compare --pairs) or was
+        # named as nothing ("config file not found").
+        for args, name in ((["generate", cfg, "--out", ""], "--out"), (["generate", ""], "config"),
+                           (["validate", ""], "config"), (["contact-sheet", ""], "dataset"),
+                           (["contact-sheet", d, "--out", ""], "--out"),
+                           (["compare", cfg, cfg, "--pairs", ""], "--pairs"), (["compare", "", cfg], "REFERENCE"),
+                           (["compare", cfg, cfg, "--mask", ""], "--mask")):
+            self.expect_error(args, "defectgen: error: %s: expected a path, got an empty one (see --help)" % name)
         self.expect_error(["generate", cfg, "--out", out, "--bogus"],
                           "defectgen: error: The following argument was not expected: --bogus", out=out)
         # --scale could take a resolution past the config's largest (16 x 2048 = 32768).
@@ -550,8 +558,9 @@ defects:
         # Both were internal errors (exit 1): a folder that cannot be made, and contact-sheet's PNG.
         d = work("bad_out")
         cfg = self.config(d, SMALL.replace("count: 4", "count: 1"), "ok.yaml")
-        self.expect_error(["generate", cfg, "--out", "/proc/defectgen_out", "--quiet"],
-                          "/proc/defectgen_out: cannot create the output folder")
+        p = self.expect_error(["generate", cfg, "--out", "/proc/defectgen_out", "--quiet"],
+                              "/proc/defectgen_out: cannot create the output folder: ")
+        self.assertNotIn("Success", p.stderr)  # the reason was read after cleaning up had reset it
         data = os.path.join(d, "data")
         run("generate", cfg, "--out", data, "--quiet")
         self.expect_error(["contact-sheet", data, "--out", os.path.join(d, "sheet.txt")],

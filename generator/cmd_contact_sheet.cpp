@@ -1,6 +1,8 @@
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <filesystem>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -9,6 +11,7 @@
 #include "generator/cli_checks.h"
 #include "generator/commands.h"
 #include "labels/classes.h"
+#include "labels/compare.h"
 #include "labels/image_io.h"
 
 namespace dg {
@@ -51,9 +54,16 @@ size_t makeContactSheet(const std::string& dir, const std::string& out_png, int 
   if (lowerExtension(out_png) != ".png") throw InputError(out_png, "--out: expected a file name ending in .png");
   fs::path d(dir);
   if (!fs::is_directory(d / "images")) throw InputError(dir, "not a defectgen dataset folder (no images/)");
+  // Each sample's PNG, or where a dataset has none (render.png: none), its EXR.
+  std::map<std::string, fs::path> by_stem;
+  for (auto& e : fs::directory_iterator(d / "images")) {
+    const std::string ext = e.path().extension().string(), stem = e.path().stem().string();
+    if (stem.empty() || stem[0] == '.' || (ext != ".png" && ext != ".exr")) continue;
+    auto [it, added] = by_stem.emplace(stem, e.path());
+    if (!added && ext == ".png") it->second = e.path();
+  }
   std::vector<fs::path> images;
-  for (auto& e : fs::directory_iterator(d / "images"))
-    if (e.path().extension() == ".png" && e.path().filename().string()[0] != '.') images.push_back(e.path());
+  for (auto& [stem, path] : by_stem) images.push_back(path);
   std::sort(images.begin(), images.end());
   if (images.empty()) throw InputError(dir, "no images in images/");
   // A sheet is an overview: a dataset of thousands would make one of billions of pixels.
@@ -61,9 +71,24 @@ size_t makeContactSheet(const std::string& dir, const std::string& out_png, int 
   if (images.size() > size_t(max_images)) images.resize(size_t(max_images));
   std::vector<cv::Mat> tiles;
   for (auto& p : images) {
-    cv::Mat img = cv::imread(p.string(), cv::IMREAD_COLOR);
-    if (img.empty()) throw InputError(p.string(), "cannot read image");
-    if (img.depth() != CV_8U) img.convertTo(img, CV_8U, 1.0 / 257.0);
+    cv::Mat img;
+    if (p.extension() == ".exr") {
+      // Linear RGB, shown through the sRGB curve (render.exposure_stops applies to PNGs only).
+      const ColorImage c = readColorImage(p.string());
+      img.create(c.rgb.rows, c.rgb.cols, CV_8UC3);
+      for (int y = 0; y < img.rows; ++y)
+        for (int x = 0; x < img.cols; ++x) {
+          const cv::Vec3f v = c.rgb.at<cv::Vec3f>(y, x);
+          for (int k = 0; k < 3; ++k) {
+            const float e = std::isfinite(v[2 - k]) ? linearToSrgb(v[2 - k]) : 0.0f;  // BGR
+            img.at<cv::Vec3b>(y, x)[k] = uint8_t(std::lround(255.0f * e));
+          }
+        }
+    } else {
+      img = cv::imread(p.string(), cv::IMREAD_COLOR);
+      if (img.empty()) throw InputError(p.string(), "cannot read image");
+      if (img.depth() != CV_8U) img.convertTo(img, CV_8U, 1.0 / 257.0);
+    }
     std::string stem = p.stem().string();
     fs::path sem_p = d / "masks" / (stem + "_semantic.png"), inst_p = d / "masks" / (stem + "_instance.png");
     cv::Mat sem, inst;

@@ -678,6 +678,27 @@ class Commands(unittest.TestCase):
         self.assertNotIn("--max", p.stderr)
         self.assertEqual(struct.unpack(">II", read_bytes(sheet)[16:24]), (132, 100))
 
+    def test_contact_sheet_of_a_dataset_without_pngs(self):
+        # With render.png: none the images are EXRs only, and the sheet said "no images in images/".
+        # It now shows their linear RGB through the sRGB curve: within 2 codes of the PNGs' sheet
+        # (which are dithered).
+        d = work("contact_sheet_exr")
+        cfg = os.path.join(d, "small.yaml")
+        with open(cfg, "w") as f:
+            f.write(SMALL.replace("count: 4", "count: 2"))  # SMALL writes both PNG and EXR
+        data = os.path.join(d, "data")
+        run("generate", cfg, "--out", data, "--quiet")
+        with_png, exr_only = os.path.join(d, "with_png.png"), os.path.join(d, "exr_only.png")
+        run("contact-sheet", data, "--out", with_png)
+        for f in glob.glob(os.path.join(data, "images", "*.png")):
+            os.remove(f)
+        run("contact-sheet", data, "--out", exr_only)
+        a, b = coco_reader.read_png(with_png), coco_reader.read_png(exr_only)
+        self.assertEqual((a["width"], a["height"]), (b["width"], b["height"]))
+        self.assertEqual(len(a["pixels"]), len(b["pixels"]))
+        self.assertLessEqual(max(abs(x - y) for x, y in zip(a["pixels"], b["pixels"])), 2)
+        self.assertGreater(sum(1 for x in b["pixels"] if x > 40), len(b["pixels"]) // 10)  # not a black sheet
+
     def test_validate_prints_defaults_and_units(self):
         p = run("validate", os.path.join(ARGS.source, "configs", "quickstart.yaml"))
         self.assertIn("max_bounces: 3", p.stdout)

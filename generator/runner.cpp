@@ -144,6 +144,59 @@ class Progress {
   Clock::time_point start_;
 };
 
+// Samples that render but are of no use, most likely from a config mistake: a camera that does
+// not see the part (an image of the lights alone, with no labels), and a black image (lights that
+// send nothing to the camera, or an exposure far too low). Each kind is warned about once, at its
+// first sample, and counted at the end; the run goes on (such samples may be meant as negatives).
+class UselessSamples {
+ public:
+  UselessSamples(const Config& cfg, const Progress& prog) : file_(cfg.file), prog_(prog) {
+    const Value& r = cfg.root["render"];
+    gain_ = std::exp2(r["exposure_stops"].num());
+    // Half of the PNG's first code above black, in linear light (the sRGB curve is linear there,
+    // with slope 12.92): an image whose every pixel is below it writes as black.
+    black_below_ = 0.5 / (r["png"].str() == "16" ? 65535.0 : 255.0) / 12.92;
+  }
+
+  void check(uint64_t i, const Sample& s, const RenderFrame& f) {
+    if (!f.stats.part_in_view) {
+      if (++no_part_ > 1) return;
+      const json& cam = s.meta.at("camera");
+      prog_.warn("sample " + idName(i) + " does not show the part: no camera ray meets it (camera at " +
+                 point(cam.at("position_mm")) + " mm, looking at " + point(cam.at("target_mm")) +
+                 "); check camera.position, camera.target and camera.up in " + file_);
+      return;
+    }
+    if (f.rgb.empty()) return;
+    float brightest = 0.0f;
+    for (float v : f.rgb.data) brightest = std::max(brightest, v);  // NaN-safe: max(x, NaN) = x
+    if (!(brightest * gain_ < black_below_) || ++black_ > 1) return;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.2g", brightest * gain_);
+    prog_.warn("sample " + idName(i) + " is black: its brightest pixel, " + buf +
+               " after render.exposure_stops, is below the PNG's first code; check the lights' positions, "
+               "directions and radiance, and render.exposure_stops, in " + file_);
+  }
+
+  void summary(int rendered) const {
+    const std::string of = " of " + std::to_string(rendered) + " rendered samples ";
+    if (no_part_ > 1) prog_.warn(std::to_string(no_part_) + of + "do not show the part");
+    if (black_ > 1) prog_.warn(std::to_string(black_) + of + "are black");
+  }
+
+ private:
+  static std::string point(const json& v) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "[%g, %g, %g]", v.at(0).get<double>() + 0.0, v.at(1).get<double>() + 0.0,
+                  v.at(2).get<double>() + 0.0);  // + 0.0: no "-0"
+    return buf;
+  }
+  std::string file_;
+  const Progress& prog_;
+  double gain_ = 1, black_below_ = 0;
+  int64_t no_part_ = 0, black_ = 0;
+};
+
 void writeSampleFiles(const fs::path& out, const Config& cfg, const Sample& s, const RenderFrame& f,
                       json& timings) {
   const Value& r = cfg.root["render"];
@@ -487,12 +540,7 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   Progress prog(int(todo.size()), o.quiet);
   json per_sample = json::array();
   double render_total = 0;
-  int64_t no_part = 0, black = 0;  // samples whose camera does not see the part; black images
-  const Value& rnd = ds.config.root["render"];
-  const double gain = std::exp2(rnd["exposure_stops"].num());
-  // Half of the PNG's first code above black, in linear light (the sRGB curve is linear there,
-  // with slope 12.92): an image whose every pixel is below it writes as black.
-  const double black_below = 0.5 / (rnd["png"].str() == "16" ? 65535.0 : 255.0) / 12.92;
+  UselessSamples useless(ds.config, prog);
   for (uint64_t i : todo) {
     auto t0 = Clock::now();
     const bool was_kept = kept && i == mine.front();
@@ -508,31 +556,7 @@ GenerateResult runGenerate(const GenerateOptions& o) {
         t["groove_footprints"] = {{"sections", f.stats.groove_sections},
                                   {"polygons", f.stats.groove_polygons},
                                   {"fallbacks", f.stats.groove_fallbacks}};
-      if (!f.stats.part_in_view && ++no_part == 1) {
-        // A camera that looks past the part renders an image of the lights alone, with no labels:
-        // most likely a config mistake, said once (and counted at the end).
-        auto point = [](const json& v) {
-          char buf[96];
-          std::snprintf(buf, sizeof buf, "[%g, %g, %g]", v.at(0).get<double>() + 0.0, v.at(1).get<double>() + 0.0,
-                        v.at(2).get<double>() + 0.0);  // + 0.0: no "-0"
-          return std::string(buf);
-        };
-        const json& cam = s.meta.at("camera");
-        prog.warn("sample " + idName(i) + " does not show the part: no camera ray meets it (camera at " +
-                  point(cam.at("position_mm")) + " mm, looking at " + point(cam.at("target_mm")) +
-                  "); check camera.position, camera.target and camera.up in " + cfg.file);
-      }
-      if (f.stats.part_in_view && !f.rgb.empty()) {
-        float brightest = 0.0f;
-        for (float v : f.rgb.data) brightest = std::max(brightest, v);  // NaN-safe: max(x, NaN) = x
-        if (brightest * gain < black_below && ++black == 1) {
-          char buf[64];
-          std::snprintf(buf, sizeof buf, "%.2g", brightest * gain);
-          prog.warn("sample " + idName(i) + " is black: its brightest pixel, " + buf +
-                    " after render.exposure_stops, is below the PNG's first code; check the lights' positions, "
-                    "directions and radiance, and render.exposure_stops, in " + cfg.file);
-        }
-      }
+      useless.check(i, s, f);
       writeSampleFiles(out, ds.config, s, f, t);
     } catch (const WriteError& e) {
       throw WriteError("", std::string(e.what()) + keptSoFar(res.rendered));
@@ -569,9 +593,7 @@ GenerateResult runGenerate(const GenerateOptions& o) {
     if (now == present) break;
     present = now;
   }
-  if (no_part > 1)
-    prog.warn(std::to_string(no_part) + " of " + std::to_string(res.rendered) + " rendered samples do not show the part");
-  if (black > 1) prog.warn(std::to_string(black) + " of " + std::to_string(res.rendered) + " rendered samples are black");
+  useless.summary(res.rendered);
   if (!o.quiet)
     std::fprintf(stderr, "defectgen: %d sample(s) rendered, %d skipped, in %.1f s; dataset in %s\n", res.rendered,
                  res.skipped, res.seconds, out.string().c_str());

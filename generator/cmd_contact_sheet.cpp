@@ -1,6 +1,5 @@
 #include <CLI/CLI.hpp>
 
-#include <cmath>
 #include <filesystem>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
@@ -74,16 +73,7 @@ size_t makeContactSheet(const std::string& dir, const std::string& out_png, int 
     cv::Mat img;
     if (p.extension() == ".exr") {
       // Linear RGB, shown through the sRGB curve (render.exposure_stops applies to PNGs only).
-      const ColorImage c = readColorImage(p.string());
-      img.create(c.rgb.rows, c.rgb.cols, CV_8UC3);
-      for (int y = 0; y < img.rows; ++y)
-        for (int x = 0; x < img.cols; ++x) {
-          const cv::Vec3f v = c.rgb.at<cv::Vec3f>(y, x);
-          for (int k = 0; k < 3; ++k) {
-            const float e = std::isfinite(v[2 - k]) ? linearToSrgb(v[2 - k]) : 0.0f;  // BGR
-            img.at<cv::Vec3b>(y, x)[k] = uint8_t(std::lround(255.0f * e));
-          }
-        }
+      cv::cvtColor(toDisplay8(readColorImage(p.string()).rgb), img, cv::COLOR_RGB2BGR);
     } else {
       img = cv::imread(p.string(), cv::IMREAD_COLOR);
       if (img.empty()) throw InputError(p.string(), "cannot read image");

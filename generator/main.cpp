@@ -2,11 +2,9 @@
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 
-#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <regex>
-#include <sstream>
 #include <string>
 
 #include "core/error.h"
@@ -134,12 +132,10 @@ int main(int argc, char** argv) {
     return kExitInputError;
   } catch (const std::bad_alloc&) {
     return outOfMemory(app);
-  } catch (const cv::Exception& e) {
-    // OpenCV reports a failed allocation as its own exception (compare on large images).
-    if (e.code == cv::Error::StsNoMem) return outOfMemory(app);
-    std::fprintf(stderr, "defectgen: internal error: %s\n", withoutControlCharacters(e.what()).c_str());
-    return 1;
   } catch (const std::exception& e) {
+    // OpenCV reports a failed allocation as its own exception (compare on large images).
+    if (auto* cv_e = dynamic_cast<const cv::Exception*>(&e); cv_e && cv_e->code == cv::Error::StsNoMem)
+      return outOfMemory(app);
     std::fprintf(stderr, "defectgen: internal error: %s\n", withoutControlCharacters(e.what()).c_str());
     return 1;
   }

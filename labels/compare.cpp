@@ -97,30 +97,6 @@ cv::Mat gatherRgb(const RawImage& r, const int idx[3], int cvDepth) {
   return m;
 }
 
-// 8-bit sRGB-encoded RGB for display.
-cv::Mat toDisplay8(const cv::Mat& rgb) {
-  cv::Mat out;
-  if (rgb.depth() == CV_8U) return rgb.clone();
-  if (rgb.depth() == CV_16U) {
-    rgb.convertTo(out, CV_8U, 1.0 / 257.0);
-    return out;
-  }
-  static const std::vector<uint8_t> lut = [] {
-    std::vector<uint8_t> t(65536);
-    for (int i = 0; i < 65536; ++i) t[i] = uint8_t(std::lround(color::srgbEncode(i / 65535.0) * 255.0));
-    return t;
-  }();
-  out.create(rgb.size(), CV_MAKETYPE(CV_8U, rgb.channels()));
-  for (int y = 0; y < rgb.rows; ++y) {
-    const float* p = rgb.ptr<float>(y);
-    uint8_t* o = out.ptr<uint8_t>(y);
-    for (int i = 0; i < rgb.cols * rgb.channels(); ++i) {
-      float v = std::isnan(p[i]) ? 0.f : std::clamp(p[i], 0.f, 1.f);
-      o[i] = lut[size_t(std::lround(v * 65535.0f))];
-    }
-  }
-  return out;
-}
 
 // ---------------------------------------------------------------------------------------------
 // Drawing helpers (8-bit BGR canvases; Hershey fonts have no Greek letters, hence "dE").
@@ -289,6 +265,30 @@ std::string csvField(const std::string& s) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
+
+cv::Mat toDisplay8(const cv::Mat& rgb) {
+  cv::Mat out;
+  if (rgb.depth() == CV_8U) return rgb.clone();
+  if (rgb.depth() == CV_16U) {
+    rgb.convertTo(out, CV_8U, 1.0 / 257.0);
+    return out;
+  }
+  static const std::vector<uint8_t> lut = [] {
+    std::vector<uint8_t> t(65536);
+    for (int i = 0; i < 65536; ++i) t[i] = uint8_t(std::lround(color::srgbEncode(i / 65535.0) * 255.0));
+    return t;
+  }();
+  out.create(rgb.size(), CV_MAKETYPE(CV_8U, rgb.channels()));
+  for (int y = 0; y < rgb.rows; ++y) {
+    const float* p = rgb.ptr<float>(y);
+    uint8_t* o = out.ptr<uint8_t>(y);
+    for (int i = 0; i < rgb.cols * rgb.channels(); ++i) {
+      float v = std::isnan(p[i]) ? 0.f : std::clamp(p[i], 0.f, 1.f);
+      o[i] = lut[size_t(std::lround(v * 65535.0f))];
+    }
+  }
+  return out;
+}
 
 ColorImage readColorImage(const std::string& path) {
   // Peek at the format first to decide between integer (sRGB) and float (linear) reading.

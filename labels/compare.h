@@ -27,6 +27,10 @@ struct ColorImage {
 // Throws InputError naming the file when it cannot be read or has an unsupported format.
 ColorImage readColorImage(const std::string& path);
 
+// A ColorImage's pixels as 8-bit sRGB-encoded RGB, for display: 8-bit kept, 16-bit scaled, linear
+// float encoded (NaN as 0, clamped to [0, 1]).
+cv::Mat toDisplay8(const cv::Mat& rgb);
+
 // Reads a mask (any image; a pixel is inside where any channel is non-zero). Throws InputError
 // when unreadable or not of the expected size. Returns CV_8U, 255 inside, 0 outside.
 cv::Mat readMaskImage(const std::string& path, cv::Size expected);

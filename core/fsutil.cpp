@@ -48,14 +48,18 @@ void writeAtomically(const fs::path& path, const std::function<void(const fs::pa
   }
 }
 
-void writeTextAtomically(const fs::path& path, const std::string& text) {
+void writeStreamAtomically(const fs::path& path, const std::function<void(std::ostream&)>& write) {
   writeAtomically(path, [&](const fs::path& tmp) {
     std::ofstream f(tmp, std::ios::binary);
     if (!f) throw std::runtime_error(std::string("cannot open it: ") + std::strerror(errno));
-    f << text;
+    write(f);
     f.close();
     if (!f) throw std::runtime_error(std::string(std::strerror(errno)));
   });
+}
+
+void writeTextAtomically(const fs::path& path, const std::string& text) {
+  writeStreamAtomically(path, [&](std::ostream& f) { f << text; });
 }
 
 std::string readTextFile(const fs::path& path) {

@@ -3,6 +3,7 @@
 #pragma once
 #include <filesystem>
 #include <functional>
+#include <iosfwd>
 #include <string>
 
 namespace dg {
@@ -13,6 +14,8 @@ namespace dg {
 void writeAtomically(const std::filesystem::path& path,
                      const std::function<void(const std::filesystem::path&)>& write);
 void writeTextAtomically(const std::filesystem::path& path, const std::string& text);
+// The same for text written piece by piece into a binary stream (a file too large to hold whole).
+void writeStreamAtomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write);
 // Throws WriteError for `path`: "cannot write the file (reason)", and where the file system holding
 // it is (nearly) full, that. writeAtomically reports the writers' I/O failures through it.
 [[noreturn]] void throwWriteError(const std::filesystem::path& path, const std::string& reason);

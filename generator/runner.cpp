@@ -6,9 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cerrno>
 #include <cstdio>
-#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <fstream>
@@ -310,9 +308,7 @@ int64_t assembleAnnotations(const std::string& out_dir, int64_t count) {
   // about 80 bytes each, wait in memory for their place after the annotations.
   fs::path out(out_dir);
   int64_t n_images = 0;
-  writeAtomically(out / "annotations.json", [&](const fs::path& tmp) {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!f) throw std::runtime_error(std::string("cannot open it: ") + std::strerror(errno));
+  writeStreamAtomically(out / "annotations.json", [&](std::ostream& f) {
     std::string images;
     bool first_ann = true;
     f << "{\"annotations\":[";
@@ -329,13 +325,14 @@ int64_t assembleAnnotations(const std::string& out_dir, int64_t count) {
     const json info = {{"description", "defectgen synthetic defect dataset"}, {"version", "1.0"}};
     f << "],\"categories\":" << cocoCategories().dump() << ",\"images\":[" << images << "],\"info\":" << info.dump()
       << ",\"licenses\":[]}\n";
-    f.close();
-    if (!f) throw std::runtime_error(std::string(std::strerror(errno)));
   });
   return n_images;
 }
 
 namespace {
+
+// The dataset's subfolders (docs/output.md).
+constexpr const char* kSubfolders[] = {"images", "masks", "samples"};
 
 // Makes the dataset folder with its manifest and subfolders in one step: they are made in a
 // temporary folder beside it, which is then renamed to it (rename(2) takes the place of a missing
@@ -343,8 +340,6 @@ namespace {
 // its manifest, which they would refuse as someone else's (it happened to about half of the runs of
 // eight shards started together). Returns false, leaving nothing behind, where the folder could not
 // be made this way: another shard made it first, or it cannot be renamed onto (a mount point).
-// The dataset's subfolders (docs/output.md).
-constexpr const char* kSubfolders[] = {"images", "masks", "samples"};
 
 bool createDatasetFolder(const fs::path& out, const std::string& manifest_text) {
   std::error_code ec;
@@ -480,12 +475,11 @@ GenerateResult runGenerate(const GenerateOptions& o) {
     if (fs::is_regular_file(man)) {
       try {
         json m = json::parse(readTextFile(man));
-        same = m.value("config_hash", "") == hash && m.value("seed", uint64_t(0)) == seed &&
-               m.value("count", int64_t(-1)) == count;
+        const bool same_seed = m.value("seed", uint64_t(0)) == seed;
+        same = same_seed && m.value("config_hash", "") == hash && m.value("count", int64_t(-1)) == count;
         // Sample i is a function of the seed and i alone, so a larger count adds samples to the
         // same dataset (manifests before 2026-11-27 have no scene_hash: not grown).
-        if (!same && m.value("scene_hash", "") == scene_hash && m.value("seed", uint64_t(0)) == seed)
-          had = m.value("count", int64_t(-1));
+        if (!same && same_seed && m.value("scene_hash", "") == scene_hash) had = m.value("count", int64_t(-1));
       } catch (const json::exception& e) {
         // defectgen writes it whole or not at all (renamed into place), so something else changed it.
         throw InputError(man.string(), std::string("not a readable manifest (") + e.what() +

@@ -97,7 +97,6 @@ cv::Mat gatherRgb(const RawImage& r, const int idx[3], int cvDepth) {
   return m;
 }
 
-
 // ---------------------------------------------------------------------------------------------
 // Drawing helpers (8-bit BGR canvases; Hershey fonts have no Greek letters, hence "dE").
 

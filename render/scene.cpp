@@ -52,6 +52,12 @@ PartGeometry::PartGeometry(TriangleMesh mesh, TriangleMesh shell) : mesh_(std::m
   RTCDevice dev = embreeDevice();
   scene_ = rtcNewScene(dev);
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+  // A mesh of millions of triangles (the explicit-geometry scratch reference) gets Embree's
+  // compact BVH: on the door's 20.7 million triangles the peak fell by 10% (4.75 to 4.27 GB) and
+  // the sample's time too (23.5 to 20.9 s, less memory to fill), the same bytes. On small meshes
+  // its traversal was 6-8% slower (quickstart, rusty_fender), so they keep the default layout.
+  if (mesh_.triangleCount() + shell_.triangleCount() >= kCompactBvhTriangles)
+    rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_COMPACT);
   attachTriangles(dev, scene_, mesh_);  // geometry 0
   if (shell_.triangleCount() > 0) {
     attachTriangles(dev, scene_, shell_);  // geometry 1 (kShellGeometry)

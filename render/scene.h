@@ -27,6 +27,8 @@ class PartGeometry {
   const TriangleMesh& mesh() const { return mesh_; }
   const TriangleMesh& shell() const { return shell_; }
   static constexpr unsigned kShellGeometry = 1;
+  // From this many triangles on, the BVH is built compact (render/scene.cpp).
+  static constexpr size_t kCompactBvhTriangles = 1000000;
   // Unit geometric normal (from the winding, out of the solid) of shell triangle `prim`.
   Vec3f shellNormal(unsigned prim) const { return shell_ng_[prim]; }
 

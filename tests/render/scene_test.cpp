@@ -1,11 +1,13 @@
-// PartGeometry's surface sampling within a UV region (render/scene.h): the placement of defects
-// whose region is a small part of a large chart.
+// PartGeometry (render/scene.h): its surface sampling within a UV region (the placement of defects
+// whose region is a small part of a large chart), and the BVH layout it chooses by size.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/rng.h"
 #include "render/mesh.h"
+#include "render/parts.h"
 #include "render/scene.h"
 
 namespace dg {
@@ -72,6 +74,39 @@ TEST(PartGeometry, RegionSamplesAreUniformBySurfaceArea) {
   EXPECT_NEAR(double(upper_left) / upper, 0.75, 0.015);
   // The lower half's mean x: (2/3) 600 + (1/3) 400 = 533.3 for a uniform triangle.
   EXPECT_NEAR(mean_lower_x / (n - upper), 533.33, 2.5);
+}
+
+// A mesh of a million triangles or more (the explicit-geometry scratch reference) gets Embree's
+// compact BVH, a smaller one the default; both find the same triangle.
+TEST(PartGeometry, OnlyALargeMeshGetsTheCompactBvh) {
+  for (double edge : {20.0, std::sqrt(2.0)}) {  // 36 x 36 cells, then 710 x 710: 1.008 million triangles
+    PartGeometry g(makePlate({710, 710}, edge));
+    const bool large = g.mesh().triangleCount() >= PartGeometry::kCompactBvhTriangles;
+    EXPECT_EQ(large, edge < 2) << g.mesh().triangleCount();
+    EXPECT_EQ((rtcGetSceneFlags(g.scene()) & RTC_SCENE_FLAG_COMPACT) != 0, large);
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh{};
+    rh.ray.org_x = 300.3f;
+    rh.ray.org_y = 200.6f;
+    rh.ray.org_z = 50;
+    rh.ray.dir_z = -1;
+    rh.ray.tfar = 1e9f;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(g.scene(), &ctx, &rh);
+    ASSERT_EQ(rh.hit.geomID, 0u);
+    EXPECT_NEAR(rh.ray.tfar, 50.0f, 1e-4f);
+    // The triangle found holds the point.
+    const uint32_t* f = &g.mesh().indices[3 * rh.hit.primID];
+    float lo_x = 1e9f, hi_x = -1e9f;
+    for (int k = 0; k < 3; ++k) {
+      lo_x = std::min(lo_x, g.mesh().positions[f[k]].x);
+      hi_x = std::max(hi_x, g.mesh().positions[f[k]].x);
+    }
+    EXPECT_LE(lo_x, 300.3f);
+    EXPECT_GE(hi_x, 300.3f);
+  }
 }
 
 }  // namespace

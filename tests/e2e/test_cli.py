@@ -4,9 +4,11 @@ thread counts and shards, --resume, the COCO file checked by an independent read
 (clear message, exit status 2, no output folder)."""
 
 import argparse
+import csv
 import filecmp
 import glob
 import json
+import math
 import os
 import shutil
 import struct
@@ -708,6 +710,110 @@ class Commands(unittest.TestCase):
         self.assertEqual(len(a["pixels"]), len(b["pixels"]))
         self.assertLessEqual(max(abs(x - y) for x, y in zip(a["pixels"], b["pixels"])), 2)
         self.assertGreater(sum(1 for x in b["pixels"] if x > 40), len(b["pixels"]) // 10)  # not a black sheet
+
+    def test_compare_options_reach_the_report(self):
+        # The compare command's options from the command line to its numbers: each one recorded in
+        # report.json as asked for and changing the mean (a flag wired to the wrong setting, or to
+        # none, would leave it unchanged), the viewing geometry's samples per degree, a mask's
+        # split of the pixels, point registration with identity pairs giving the unregistered
+        # result, and a batch's summary.csv matching the single runs. Two renders of SMALL.
+        d = work("compare_options")
+        cfg = os.path.join(d, "small.yaml")
+        with open(cfg, "w") as f:
+            f.write(SMALL.replace("count: 4", "count: 2"))
+        data = os.path.join(d, "data")
+        run("generate", cfg, "--out", data, "--quiet")
+        ref, test = (os.path.join(data, "images", "%06d.png" % i) for i in (0, 1))
+        mask = os.path.join(data, "masks", "000000_semantic.png")
+        runs = [0]
+
+        def compare(*opts, a=ref, b=test):
+            runs[0] += 1
+            out = os.path.join(d, "c%02d" % runs[0])
+            run("compare", a, b, "--out", out, *opts)
+            return out, load_json(os.path.join(out, "report.json"))
+
+        out, base = compare()
+        req, valid = base["request"], base["stats"]["valid"]
+        self.assertEqual((req["metric"], req["delta_e"], req["filters"], req["observer"], req["register"]),
+                         ("scielab", "1976", "paper", 2, "none"))
+        self.assertAlmostEqual(req["samples_per_degree"], 22.619, places=3)  # 72 dpi at 457.2 mm
+        self.assertEqual(valid["pixels"], 96 * 72)
+        self.assertGreater(valid["mean"], 0.1)
+        self.assertIsNone(base["stats"]["inside_mask"])
+        for png in ("delta_e_false_color.png", "delta_e_ge10_overlay.png", "delta_e_histogram.png"):
+            self.assertGreater(coco_reader.read_png(os.path.join(out, png))["width"], 0, png)
+        self.assertEqual(read_bytes(os.path.join(out, "delta_e.exr"))[:4], b"\x76\x2f\x31\x01")  # OpenEXR magic
+
+        # An image against itself.
+        _, same = compare(b=ref)
+        self.assertEqual((same["stats"]["valid"]["mean"], same["stats"]["valid"]["max"]), (0, 0))
+
+        # Each option: what the report records, and a mean of its own.
+        for opts, field, want in ((["--metric", "cielab"], "metric", "cielab"),
+                                  (["--metric", "ycxcz"], "metric", "ycxcz"),
+                                  (["--delta-e", "94"], "delta_e", "94"),
+                                  (["--delta-e", "2000"], "delta_e", "2000"),
+                                  (["--filters", "isetcam"], "filters", "isetcam"),
+                                  (["--observer", "10"], "observer", 10),
+                                  (["--samples-per-degree", "60"], "samples_per_degree", 60),
+                                  # docs/compare.md: N = 1 / degrees(atan(pixel size / distance))
+                                  (["--dpi", "150", "--distance-mm", "500"], "samples_per_degree",
+                                   1 / math.degrees(math.atan(25.4 / 150 / 500))),
+                                  (["--pixel-pitch-mm", "0.1", "--distance-mm", "300"], "samples_per_degree",
+                                   1 / math.degrees(math.atan(0.1 / 300)))):
+            _, r = compare(*opts)
+            got = r["request"][field]
+            if isinstance(want, float):
+                self.assertAlmostEqual(got, want, places=6, msg=opts)
+            else:
+                self.assertEqual(got, want, opts)
+            self.assertNotEqual(r["stats"]["valid"]["mean"], valid["mean"], opts)
+            self.assertEqual(r["stats"]["valid"]["pixels"], 96 * 72, opts)
+
+        # A dataset's mask: its non-zero pixels are the inside.
+        _, masked = compare("--mask", mask)
+        m = coco_reader.read_png(mask)
+        channels = len(m["pixels"]) // (m["width"] * m["height"])
+        inside = sum(1 for i in range(0, len(m["pixels"]), channels) if any(m["pixels"][i:i + channels]))
+        self.assertGreater(inside, 0)
+        st = masked["stats"]
+        self.assertEqual((st["inside_mask"]["pixels"], st["outside_mask"]["pixels"]), (inside, 96 * 72 - inside))
+        self.assertAlmostEqual(st["valid"]["mean"], valid["mean"], places=9)
+        self.assertAlmostEqual((st["inside_mask"]["mean"] * inside + st["outside_mask"]["mean"] * (96 * 72 - inside))
+                               / (96 * 72), valid["mean"], places=6)
+
+        # Point pairs that map every pixel onto itself: the homography is the identity, and the
+        # resampled test image gives the unregistered numbers.
+        points = os.path.join(d, "points.txt")
+        with open(points, "w") as f:
+            f.write("# x_ref y_ref x_test y_test\n0 0 0 0\n95 0 95 0\n95 71 95 71\n0 71 0 71\n40, 30, 40, 30\n")
+        _, reg = compare("--register", "points", points)
+        self.assertEqual(reg["registration"]["mode"], "points")
+        H = reg["registration"]["homography_test_to_reference"]
+        for i in range(3):
+            for j in range(3):
+                self.assertAlmostEqual(H[i][j], 1.0 if i == j else 0.0, places=6)
+        self.assertLess(reg["registration"]["residual_max_px"], 1e-6)
+        self.assertAlmostEqual(reg["stats"]["valid"]["mean"], valid["mean"], places=4)
+
+        # A batch of two pairs, one with the mask: one summary row each, with the single runs' numbers.
+        csv_path = os.path.join(d, "pairs.csv")
+        with open(csv_path, "w") as f:
+            f.write("name,reference,test,mask\nplain,%s,%s,\nmasked,%s,%s,%s\n" % (ref, test, ref, test, mask))
+        batch = os.path.join(d, "batch")
+        run("compare", "--pairs", csv_path, "--out", batch, "--metric", "ycxcz")
+        with open(os.path.join(batch, "summary.csv")) as f:
+            rows = list(csv.DictReader(f))
+        self.assertEqual([r["name"] for r in rows], ["plain", "masked"])
+        _, single = compare("--metric", "ycxcz")
+        for r in rows:
+            self.assertEqual(r["metric"], "ycxcz")
+            self.assertAlmostEqual(float(r["mean"]), single["stats"]["valid"]["mean"], places=4)
+        self.assertEqual(rows[0]["inside_mean"], "")
+        self.assertAlmostEqual(float(rows[1]["inside_mean"]),
+                               load_json(os.path.join(batch, "masked", "report.json"))["stats"]["inside_mask"]["mean"],
+                               places=4)
 
     def test_validate_prints_defaults_and_units(self):
         p = run("validate", os.path.join(ARGS.source, "configs", "quickstart.yaml"))

@@ -69,6 +69,16 @@ def work(name):
     return d
 
 
+def small_dataset(d, text):
+    """Writes text (a variant of SMALL) to d/small.yaml and generates it into d/data; returns that."""
+    cfg = os.path.join(d, "small.yaml")
+    with open(cfg, "w") as f:
+        f.write(text)
+    data = os.path.join(d, "data")
+    run("generate", cfg, "--out", data, "--quiet")
+    return data
+
+
 def tree_files(root, skip=("manifest.json",)):
     out = []
     for dirpath, _, files in os.walk(root):
@@ -676,11 +686,7 @@ class Commands(unittest.TestCase):
     def test_contact_sheet_shows_the_first_images(self):
         # A sheet of every image of a large dataset would be billions of pixels: --max (default 100).
         d = work("contact_sheet")
-        cfg = os.path.join(d, "small.yaml")
-        with open(cfg, "w") as f:
-            f.write(SMALL.replace("spp: 2", "spp: 1"))
-        data = os.path.join(d, "data")
-        run("generate", cfg, "--out", data, "--quiet")
+        data = small_dataset(d, SMALL.replace("spp: 2", "spp: 1"))
         sheet = os.path.join(d, "sheet.png")
         p = run("contact-sheet", data, "--out", sheet, "--max", "3", "--columns", "2", "--thumb", "64")
         self.assertIn("contact sheet of the first 3 of 4 images (--max)", p.stderr)
@@ -695,11 +701,7 @@ class Commands(unittest.TestCase):
         # It now shows their linear RGB through the sRGB curve: within 2 codes of the PNGs' sheet
         # (which are dithered).
         d = work("contact_sheet_exr")
-        cfg = os.path.join(d, "small.yaml")
-        with open(cfg, "w") as f:
-            f.write(SMALL.replace("count: 4", "count: 2"))  # SMALL writes both PNG and EXR
-        data = os.path.join(d, "data")
-        run("generate", cfg, "--out", data, "--quiet")
+        data = small_dataset(d, SMALL.replace("count: 4", "count: 2"))  # SMALL writes both PNG and EXR
         with_png, exr_only = os.path.join(d, "with_png.png"), os.path.join(d, "exr_only.png")
         run("contact-sheet", data, "--out", with_png)
         for f in glob.glob(os.path.join(data, "images", "*.png")):
@@ -718,11 +720,7 @@ class Commands(unittest.TestCase):
         # split of the pixels, point registration with identity pairs giving the unregistered
         # result, and a batch's summary.csv matching the single runs. Two renders of SMALL.
         d = work("compare_options")
-        cfg = os.path.join(d, "small.yaml")
-        with open(cfg, "w") as f:
-            f.write(SMALL.replace("count: 4", "count: 2"))
-        data = os.path.join(d, "data")
-        run("generate", cfg, "--out", data, "--quiet")
+        data = small_dataset(d, SMALL.replace("count: 4", "count: 2"))
         ref, test = (os.path.join(data, "images", "%06d.png" % i) for i in (0, 1))
         mask = os.path.join(data, "masks", "000000_semantic.png")
         runs = [0]

@@ -26,7 +26,9 @@ SANITIZED = ("built with sanitizers (DG_SANITIZED): ulimit -v and the peak RSS m
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(HERE, "..", "accuracy"))
 import coco_reader  # noqa: E402
+import groove_scenes  # noqa: E402  (the accuracy scenes, for the bench's door and the geometry's determinism)
 
 ARGS = None
 
@@ -336,8 +338,6 @@ class Generate(unittest.TestCase):
         # The scratch reference: the cut mesh is built in parallel blocks, and from a million
         # triangles on its BVH is compact (render/scene.cpp). The wash swirls of the accuracy
         # layouts cut 2.5 million.
-        sys.path.insert(0, os.path.join(ARGS.source, "tests", "accuracy"))
-        import groove_scenes
         d = work("determinism_geometry")
         cfg = os.path.join(d, "swirls.yaml")
         with open(cfg, "w") as f:
@@ -838,8 +838,6 @@ class Commands(unittest.TestCase):
     def test_the_benchs_door_is_the_shipped_example(self):
         # scripts/bench-grooves --door times the issue's example with its draws fixed
         # (tests/accuracy/groove_scenes.DOOR): the same part, material and scratch processes.
-        sys.path.insert(0, os.path.join(ARGS.source, "tests", "accuracy"))
-        import groove_scenes
         d = work("bench_door")
         path = os.path.join(d, "door.yaml")
         with open(path, "w") as f:

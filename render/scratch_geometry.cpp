@@ -339,7 +339,12 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
         for (size_t l = k + 1; l < near.size(); ++l) f.push_back(double(near[k]->height(p)) - double(near[l]->height(p)));
       return f;
     };
-    auto heightAt = [&](Vec2d q) { return double(scratchHeight(scratches, Vec2f(float(q.x), float(q.y)))); };
+    // The heights in a finest cell (and a little beyond its edges, where the walls at jumps
+    // sample them) come from the scratches that reach that far (`near_h`), the same values as
+    // from all of them: the others are 0 there. Coarser cells ask all.
+    std::vector<const Scratch*> near_h;
+    const std::vector<const Scratch*>* heights = &scratches;
+    auto heightAt = [&](Vec2d q) { return double(scratchHeight(*heights, Vec2f(float(q.x), float(q.y)))); };
     // A piece's own height at its vertex q, from a point 1/64 of the way to its centre c (hc the
     // height there): exact where the height is affine over the piece.
     auto insideHeight = [&](Vec2d q, Vec2d c, double hc) {
@@ -352,16 +357,24 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       const Vec2d q00 = corner(c.i0, c.j0), q10 = corner(c.i0 + c.size, c.j0),
                   q11 = corner(c.i0 + c.size, c.j0 + c.size), q01 = corner(c.i0, c.j0 + c.size);
       near.clear();
+      near_h.clear();
       if (c.size == 1) {
         Box2 cb{Vec2f(float(q00.x), float(q00.y)), Vec2f(float(q11.x), float(q11.y))};
+        Box2 cb_h{cb.lo - Vec2f(far, far), cb.hi + Vec2f(far, far)};
         Vec2f centre(float(0.5 * (q00.x + q11.x)), float(0.5 * (q00.y + q11.y)));
         float half_diag = float(0.5 * std::hypot(q11.x - q00.x, q11.y - q00.y));
         for (const Scratch* sc : scratches) {
-          if (!sc->support().overlaps(cb)) continue;
+          if (!sc->support().overlaps(cb_h)) continue;
           float reach = float(sc->referenceProfile().halfExtent()) * sc->maxScale() + half_diag;
-          if (sc->path().closest(centre, reach).found) near.push_back(sc);
+          // One query at the wider reach answers both: the nearest segment within the narrower
+          // one is also the nearest found within the wider, at the same distance.
+          const PathPoint pc = sc->path().closest(centre, reach + far);
+          if (!pc.found) continue;
+          near_h.push_back(sc);
+          if (sc->support().overlaps(cb) && pc.distance <= reach) near.push_back(sc);
         }
       }
+      heights = c.size == 1 ? &near_h : &scratches;
       // The kinks that cut this cell. One closer to the last kept than the offsets' rounding
       // (`merge`) at the scale of the cell's centre is left out: where a fade or the perturbation
       // shrinks the cross-section to nanometres, the order of its kinks is rounding noise, and
@@ -506,7 +519,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
           for (size_t k = 0; k < m; ++k) {
             T[k] = Vec2f(float(poly[k].uv.x), float(poly[k].uv.y));
             place(poly[k], Bs[k], N[k]);
-            hv[k] = scratchHeight(scratches, T[k]);
+            hv[k] = scratchHeight(*heights, T[k]);
             // On a jump line a point's height is one side's; the piece on the other side takes its
             // own facet's value there, extrapolated from a point just inside (the facet is affine
             // across the piece).

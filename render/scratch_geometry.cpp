@@ -291,6 +291,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
     Soup& out = soups[blk];
     out.count_only = opt.count_only;
     std::vector<const Scratch*> near;
+    std::vector<PathPoint> near_at;  // per scratch in `near`: its path's point nearest the cell's centre
     // The ends of the scratches in `near`: where the scale is still > 0 at an end, the height drops
     // to 0 across the line through it perpendicular to the path (PathPoint::beyond > 0 past it).
     struct End {
@@ -357,6 +358,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       const Vec2d q00 = corner(c.i0, c.j0), q10 = corner(c.i0 + c.size, c.j0),
                   q11 = corner(c.i0 + c.size, c.j0 + c.size), q01 = corner(c.i0, c.j0 + c.size);
       near.clear();
+      near_at.clear();
       near_h.clear();
       if (c.size == 1) {
         Box2 cb{Vec2f(float(q00.x), float(q00.y)), Vec2f(float(q11.x), float(q11.y))};
@@ -371,7 +373,10 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
           const PathPoint pc = sc->path().closest(centre, reach + far);
           if (!pc.found) continue;
           near_h.push_back(sc);
-          if (sc->support().overlaps(cb) && pc.distance <= reach) near.push_back(sc);
+          if (sc->support().overlaps(cb) && pc.distance <= reach) {
+            near.push_back(sc);
+            near_at.push_back(pc);
+          }
         }
       }
       heights = c.size == 1 ? &near_h : &scratches;
@@ -385,10 +390,11 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       for (size_t k = 0; k < near.size(); ++k) {
         const std::vector<Vec2d>& pts = near[k]->referenceProfile().pts;
         kinks[k].assign(pts.size(), 1);
-        const PathPoint pc = near[k]->path().closest(
-            Vec2f(float(0.5 * (q00.x + q11.x)), float(0.5 * (q00.y + q11.y))),
-            float(near[k]->referenceProfile().halfExtent()) * near[k]->maxScale() + far);
-        const double kc = pc.found && pc.beyond <= 0 ? double(near[k]->scaleAt(pc.s)) : 0.0;
+        // The nearest point found above, within this narrower reach (the same point a query at it
+        // finds: the nearest segment within it is the nearest within the wider one too).
+        const PathPoint& pc = near_at[k];
+        const bool found = pc.distance <= float(near[k]->referenceProfile().halfExtent()) * near[k]->maxScale() + far;
+        const double kc = found && pc.beyond <= 0 ? double(near[k]->scaleAt(pc.s)) : 0.0;
         if (!(kc > 0)) continue;
         double last = pts[0].x;
         for (size_t i = 1; i < pts.size(); ++i) {

@@ -340,7 +340,6 @@ constexpr const char* kSubfolders[] = {"images", "masks", "samples"};
 // its manifest, which they would refuse as someone else's (it happened to about half of the runs of
 // eight shards started together). Returns false, leaving nothing behind, where the folder could not
 // be made this way: another shard made it first, or it cannot be renamed onto (a mount point).
-
 bool createDatasetFolder(const fs::path& out, const std::string& manifest_text) {
   std::error_code ec;
   const fs::path parent = out.has_parent_path() ? out.parent_path() : fs::path(".");

@@ -1,5 +1,11 @@
 #include "core/parallel.h"
 
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdint>
+
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
@@ -16,6 +22,25 @@ void parallelFor(size_t n, const std::function<void(size_t)>& body) {
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i != r.end(); ++i) body(i);
   });
+}
+
+void populateInParallel(void* p, size_t bytes) {
+#ifdef MADV_POPULATE_WRITE
+  constexpr size_t kSlice = size_t(32) << 20;  // 32 MiB a task
+  if (bytes < kSlice) return;                  // not worth the tasks: first writes page it in
+  const uintptr_t page = uintptr_t(sysconf(_SC_PAGESIZE));
+  const uintptr_t a = (uintptr_t(p) + page - 1) / page * page;  // whole pages inside the range
+  const uintptr_t b = (uintptr_t(p) + bytes) / page * page;
+  if (b <= a) return;
+  const size_t n = (b - a + kSlice - 1) / kSlice;
+  parallelFor(n, [&](size_t i) {
+    const uintptr_t s = a + i * kSlice, e = std::min<uintptr_t>(b, s + kSlice);
+    madvise(reinterpret_cast<void*>(s), e - s, MADV_POPULATE_WRITE);  // a failure leaves it to first write
+  });
+#else
+  (void)p;
+  (void)bytes;
+#endif
 }
 
 }  // namespace dg

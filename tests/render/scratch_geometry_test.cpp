@@ -8,6 +8,7 @@
 #include <random>
 #include <unordered_map>
 
+#include "core/parallel.h"
 #include "defects/scratch.h"
 #include "render/parts.h"
 #include "render/scratch_geometry.h"
@@ -133,6 +134,42 @@ TEST(ScratchGeometry, CellSizeDoesNotChangeTheSurface) {
   const double L = std::hypot(10.0, 7.0) - 4;
   EXPECT_NEAR(t1, L * arc, 1e-2 * L * arc);  // cells on the two cut lines count by their centroid
   EXPECT_NEAR(t2, L * arc, 2e-3 * L * arc);
+}
+
+// The cut runs on all threads: the tree of cells in subtrees, the blocks of leaves, and the copy of
+// the blocks into the mesh. Two crossing scratches at a fine cell (about 550,000 triangles, cells
+// spread over hundreds of subtrees and blocks) give the same mesh to the bit on 1 and 2 threads.
+TEST(ScratchGeometry, TheMeshIsTheSameWhateverTheThreadCount) {
+  PlateParams pp;
+  pp.width_mm = 20;
+  pp.height_mm = 20;
+  TriangleMesh plate = makePlate(pp, 5);
+  Scratch a = straightScratch();
+  Profile p = Profile::fromPolyline({{-0.04, 0.0}, {-0.03, 0.005}, {0.0, -0.02}, {0.03, 0.005}, {0.04, 0.0}});
+  Scratch b = Scratch::fromProfile(ScratchPath::polyline({{8.0, 4.0}, {12.0, 16.0}}), p);
+  std::vector<const Scratch*> list{&a, &b};
+  ScratchGeometryOptions o;
+  o.cell_mm = 0.004;
+  auto cut = [&](int threads) {
+    ThreadLimit limit(threads);
+    return scratchedMesh(plate, list, o);
+  };
+  const TriangleMesh one = cut(1), two = cut(2);
+  ASSERT_GT(one.triangleCount(), 300000u);
+  auto same = [](const auto& x, const auto& y) {
+    return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) == 0;
+  };
+  EXPECT_TRUE(same(one.indices, two.indices));
+  EXPECT_TRUE(same(one.positions, two.positions));
+  EXPECT_TRUE(same(one.normals, two.normals));
+  EXPECT_TRUE(same(one.uvs, two.uvs));
+  EXPECT_TRUE(same(one.heights, two.heights));
+  EXPECT_TRUE(same(one.mmPerUv, two.mmPerUv));
+  // The kept part triangles come first with their own vertices, then the cut ones, all used.
+  EXPECT_EQ(one.indices[0], 0u);
+  std::vector<char> used(one.positions.size(), 0);
+  for (uint32_t i : one.indices) used[i] = 1;
+  EXPECT_EQ(std::count(used.begin(), used.end(), 1), std::ptrdiff_t(one.positions.size()));
 }
 
 // generate checks every sample before it writes (checkSample): counting alone must give the mesh's

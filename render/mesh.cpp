@@ -1,6 +1,8 @@
 // TriangleMesh measurements: bounding box, surface area and the per-triangle chart scale.
 #include "render/mesh.h"
 
+#include "core/parallel.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -123,21 +125,26 @@ double TriangleMesh::surfaceAreaMm2() const {
 
 void TriangleMesh::computeMmPerUv() {
   const size_t n = triangleCount();
-  mmPerUv.assign(n, 0.0f);
+  mmPerUv.clear();
+  resizeInParallel(mmPerUv, n);  // zeros
   if (uvs.size() != positions.size()) return;  // no chart: the scale is unknown (0 everywhere)
-  for (size_t t = 0; t < n; ++t) {
-    const uint32_t i0 = indices[3 * t], i1 = indices[3 * t + 1], i2 = indices[3 * t + 2];
-    const double a3 = twiceArea3(positions[i0], positions[i1], positions[i2]);
-    const Vec2d e1{double(uvs[i1].x) - uvs[i0].x, double(uvs[i1].y) - uvs[i0].y};
-    const Vec2d e2{double(uvs[i2].x) - uvs[i0].x, double(uvs[i2].y) - uvs[i0].y};
-    const double auv = std::abs(e1.x * e2.y - e1.y * e2.x);
-    // Degenerate UV triangle: its area is negligible against its squared edge lengths (a sliver
-    // or a collapsed triangle), so the ratio would only amplify rounding noise.
-    const double longest2 = std::max({e1.x * e1.x + e1.y * e1.y, e2.x * e2.x + e2.y * e2.y,
-                                      (e2.x - e1.x) * (e2.x - e1.x) + (e2.y - e1.y) * (e2.y - e1.y)});
-    if (!(auv > 1e-9 * longest2) || !std::isfinite(a3)) continue;
-    mmPerUv[t] = float(std::sqrt(a3 / auv));
-  }
+  // Each triangle on its own, in slices on all threads (a cut mesh has tens of millions).
+  constexpr size_t kSlice = 65536;
+  parallelFor((n + kSlice - 1) / kSlice, [&](size_t sl) {
+    for (size_t t = sl * kSlice; t < std::min(n, (sl + 1) * kSlice); ++t) {
+      const uint32_t i0 = indices[3 * t], i1 = indices[3 * t + 1], i2 = indices[3 * t + 2];
+      const double a3 = twiceArea3(positions[i0], positions[i1], positions[i2]);
+      const Vec2d e1{double(uvs[i1].x) - uvs[i0].x, double(uvs[i1].y) - uvs[i0].y};
+      const Vec2d e2{double(uvs[i2].x) - uvs[i0].x, double(uvs[i2].y) - uvs[i0].y};
+      const double auv = std::abs(e1.x * e2.y - e1.y * e2.x);
+      // Degenerate UV triangle: its area is negligible against its squared edge lengths (a sliver
+      // or a collapsed triangle), so the ratio would only amplify rounding noise.
+      const double longest2 = std::max({e1.x * e1.x + e1.y * e1.y, e2.x * e2.x + e2.y * e2.y,
+                                        (e2.x - e1.x) * (e2.x - e1.x) + (e2.y - e1.y) * (e2.y - e1.y)});
+      if (!(auv > 1e-9 * longest2) || !std::isfinite(a3)) continue;
+      mmPerUv[t] = float(std::sqrt(a3 / auv));
+    }
+  });
 }
 
 }  // namespace dg

@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <memory>
 
+#include "core/parallel.h"
 #include "core/rng.h"
 #include "render/mesh.h"
 #include "render/parts.h"
@@ -107,6 +110,56 @@ TEST(PartGeometry, OnlyALargeMeshGetsTheCompactBvh) {
     EXPECT_LE(lo_x, 300.3f);
     EXPECT_GE(hi_x, 300.3f);
   }
+}
+
+
+// The per-triangle frames, the area sums and the UV box are computed in slices on all threads;
+// the result does not depend on the thread count, and a triangle late in the mesh (past the
+// first slices) still counts: a collapsed UV triangle and the farthest UV are found.
+TEST(PartGeometry, FramesAreTheSameWhateverTheThreadCount) {
+  TriangleMesh m = makePlate({300, 300}, 1.0);  // 180,000 triangles: slices of 65,536
+  ASSERT_GT(m.triangleCount(), 150000u);
+  const size_t late = m.triangleCount() - 7;
+  const uint32_t* f = &m.indices[3 * late];
+  // Its own three vertices: collapsed in UV (a point), unchanged in 3-D.
+  for (int k = 0; k < 3; ++k) {
+    m.positions.push_back(m.positions[f[k]]);
+    m.uvs.push_back({1234.5f, -77.25f});
+    if (!m.normals.empty()) m.normals.push_back(m.normals[f[k]]);
+  }
+  const uint32_t first = uint32_t(m.positions.size() - 3);
+  for (int k = 0; k < 3; ++k) m.indices[3 * late + k] = first + uint32_t(k);
+  auto build = [&](int threads) {
+    ThreadLimit limit(threads);
+    return std::make_unique<PartGeometry>(m);
+  };
+  auto one = build(1), two = build(2);
+  EXPECT_EQ(one->degenerateUvCount(), 1u);
+  EXPECT_FALSE(one->frame(unsigned(late)).uv_ok);
+  EXPECT_TRUE(one->frame(unsigned(late - 1)).uv_ok);
+  EXPECT_EQ(one->uvBounds().hi.x, 1234.5f);
+  EXPECT_EQ(one->uvBounds().lo.y, -77.25f);
+  EXPECT_EQ(two->degenerateUvCount(), one->degenerateUvCount());
+  const Box2 b1 = one->uvBounds(), b2 = two->uvBounds();
+  EXPECT_EQ(std::memcmp(&b1, &b2, sizeof(Box2)), 0);
+  size_t differ = 0;
+  for (unsigned t = 0; t < m.triangleCount(); ++t) {
+    const auto &a = one->frame(t), &b = two->frame(t);
+    differ += std::memcmp(&a.dpdu, &b.dpdu, sizeof(Vec3f)) || std::memcmp(&a.dpdv, &b.dpdv, sizeof(Vec3f)) ||
+              std::memcmp(&a.ng, &b.ng, sizeof(Vec3f)) || a.uv_ok != b.uv_ok;
+  }
+  EXPECT_EQ(differ, 0u);
+  // Points drawn by area: the same triangle and point (the area sums' bits) on both.
+  Rng rng(5);
+  for (int i = 0; i < 1000; ++i) {
+    const double u0 = rng.uniformD(), u1 = rng.uniformD(), u2 = rng.uniformD();
+    const Vec2f p = one->sampleSurfaceUv(u0, u1, u2), q = two->sampleSurfaceUv(u0, u1, u2);
+    ASSERT_EQ(std::memcmp(&p, &q, sizeof(Vec2f)), 0) << i;
+  }
+  // The whole plate is drawn from: the last draws land near its far corner (the sums run to its
+  // end in order).
+  const Vec2f end = one->sampleSurfaceUv(1.0 - 1e-12, 0.5, 0.5);
+  EXPECT_GT(end.x + end.y, 590.0f);
 }
 
 }  // namespace

@@ -165,6 +165,19 @@ TEST(ScratchGeometry, TheMeshIsTheSameWhateverTheThreadCount) {
   EXPECT_TRUE(same(one.uvs, two.uvs));
   EXPECT_TRUE(same(one.heights, two.heights));
   EXPECT_TRUE(same(one.mmPerUv, two.mmPerUv));
+  // A cap that the tree of cells already passes is reported from its parallel part, as the same
+  // error on any number of threads.
+  for (int threads : {1, 2}) {
+    ThreadLimit limit(threads);
+    ScratchGeometryOptions small = o;
+    small.max_triangles = 20000;
+    try {
+      scratchedMesh(plate, list, small);
+      ADD_FAILURE() << threads << " threads";
+    } catch (const std::runtime_error& e) {
+      EXPECT_EQ(std::string(e.what()), "the scratch geometry would exceed 20000 triangles (cell 0.004000 mm)");
+    }
+  }
   // The kept part triangles come first with their own vertices, then the cut ones, all used.
   EXPECT_EQ(one.indices[0], 0u);
   std::vector<char> used(one.positions.size(), 0);

@@ -272,6 +272,28 @@ void checkOffHeader(const std::string& path) {
                                std::to_string(long(bytes)) + "-byte file can hold (truncated file?)");
 }
 
+// Guards CGAL's PLY reader, which adds each 'property' line to the last element declared before
+// it: a property before any 'element' line (a damaged header) crashed it (found by
+// scripts/fuzz-meshes, seed 13). The header is text even in a binary file; it is read up to
+// 'end_header' or the first 64 KiB, as CGAL reads it: line by line, the first word the keyword.
+void checkPlyHeader(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  size_t read = 0;
+  bool element = false;
+  for (int number = 1; read < 65536 && std::getline(in, line); ++number) {
+    read += line.size() + 1;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (number <= 2) continue;  // "ply" and the format: CGAL refuses those itself
+    const std::vector<Token> tok = tokenize(line);
+    if (tok.empty()) continue;
+    if (tok[0].text == "end_header") return;
+    if (tok[0].text == "element") element = true;
+    if (tok[0].text == "property" && !element)
+      throw InputError(path, number, tok[0].column, "a property before any 'element'");
+  }
+}
+
 // A binary STL whose vertices are NaN would be silently merged by CGAL's reader (it indexes
 // points with an ordered map, and NaN compares equal to everything), so binary STL coordinates
 // are checked here first. The file is binary if its size is exactly 84 + 50 * (facet count).
@@ -302,6 +324,7 @@ RawMesh readWithCgal(const std::string& path, const std::string& ext) {
   bool ok = false;
   const std::string format = ext == ".ply" ? "PLY" : ext == ".stl" ? "STL" : "OFF";
   if (ext == ".off") checkOffHeader(path);
+  if (ext == ".ply") checkPlyHeader(path);
   if (ext == ".stl") checkBinaryStl(path);
   try {
     if (ext == ".ply") {

@@ -653,6 +653,11 @@ TEST(LoadMesh, MalformedFilesThrowInputErrors) {
             std::string::npos) << e;
   e = loadError(write("bad_type.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty flaot x\nend_header\n0\n1\n2\n"));
   EXPECT_NE(e.find("bad_type.ply:4:10: expected a PLY type"), std::string::npos) << e;
+  // A header whose 'element vertex' line is lost: CGAL's reader crashed on the property after it.
+  e = loadError(write("no_element.ply", "ply\r\nformat ascii 1.0\r\ncomment a tetrahedron\r\nproperty float x\r\n"
+                                        "property float y\r\nproperty float z\r\nelement face 1\r\n"
+                                        "property list uchar int vertex_indices\r\nend_header\r\n0 0 0\r\n"));
+  EXPECT_NE(e.find("no_element.ply:4:1: a property before any 'element'"), std::string::npos) << e;
   e = loadError(write("short.ply", ply_header + "0 0 0\n1 0 0\n"));
   EXPECT_NE(e.find("short.ply:11:6: the file ends after 2 of the 3 'vertex' lines the header declares"), std::string::npos) << e;
   e = loadError(write("bad_index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n"));

@@ -419,6 +419,21 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   const uint64_t seed = uint64_t(ds.config.root["seed"].num());
   std::vector<uint64_t> mine;
   for (int64_t i = o.shard_index; i < count; i += o.shard_count) mine.push_back(uint64_t(i));
+  fs::path out = o.out_dir.empty() ? fs::path("out") / fs::path(o.config_path).stem() : fs::path(o.out_dir);
+  out = out.lexically_normal();
+  if (!out.has_filename() && out.has_parent_path()) out = out.parent_path();  // "data/" -> "data"
+  // This run's samples that are not yet complete. With --resume, those an earlier run of this
+  // config completed are neither checked nor built again (the folder is only read here; a folder
+  // of another dataset is refused below, before anything is written). Checking them again cost
+  // the explicit-geometry reference a count of each sample's cut mesh, and the first sample was
+  // built whole to be thrown away: seconds to minutes a sample on scratched_door.
+  std::vector<uint64_t> pending;
+  if (o.resume && fs::is_directory(out / "samples")) {
+    for (uint64_t i : mine)
+      if (!sampleComplete(out, i)) pending.push_back(i);
+  } else {
+    pending = mine;
+  }
   // Every sample's draws are checked (the error of the first sample that fails is the one
   // reported). The first sample is checked last and kept for the render loop: a scene can be dear
   // to build (scratched_door in the explicit-geometry reference mode cuts a mesh of 20 million
@@ -432,31 +447,28 @@ GenerateResult runGenerate(const GenerateOptions& o) {
     // About 1 ms a sample for scratched_door: silent for minutes at a million samples, unless said.
     const auto t_check = Clock::now();
     bool told = false;
-    for (size_t k = 1; k < mine.size() && !later; ++k) {
+    for (size_t k = 1; k < pending.size() && !later; ++k) {
       try {
-        checkSample(ds, seed, mine[k]);
+        checkSample(ds, seed, pending[k]);
       } catch (const InputError&) {
         later = std::current_exception();
       }
       if (!told && !o.quiet && (k & 255) == 0 && secondsSince(t_check) > 2.0) {
         std::fprintf(stderr, "defectgen: checking the draws of all %zu samples before writing anything (%zu so far)\n",
-                     mine.size(), k);
+                     pending.size(), k);
         told = true;
       }
     }
     if (told && !later)
-      std::fprintf(stderr, "defectgen: %zu samples checked in %.1f s\n", mine.size(), secondsSince(t_check));
-    if (!mine.empty()) {
+      std::fprintf(stderr, "defectgen: %zu samples checked in %.1f s\n", pending.size(), secondsSince(t_check));
+    if (!pending.empty()) {
       auto t0 = Clock::now();
-      kept.emplace(makeSample(ds, seed, mine[0]));
+      kept.emplace(makeSample(ds, seed, pending[0]));
       kept_build_s = secondsSince(t0);
     }
     if (later) std::rethrow_exception(later);
   }
 
-  fs::path out = o.out_dir.empty() ? fs::path("out") / fs::path(o.config_path).stem() : fs::path(o.out_dir);
-  out = out.lexically_normal();
-  if (!out.has_filename() && out.has_parent_path()) out = out.parent_path();  // "data/" -> "data"
   std::string hash = ds.config.hash();
   const std::string scene_hash = ds.config.sceneHash();
   json manifest = {{"config_file", o.config_path},
@@ -521,22 +533,16 @@ GenerateResult runGenerate(const GenerateOptions& o) {
     if (removed > 0 && !o.quiet)
       std::fprintf(stderr, "defectgen: removed %d temporary file(s) that an interrupted run left\n", removed);
   }
-  std::vector<uint64_t> todo;
-  for (uint64_t i : mine) {
-    if (o.resume && sampleComplete(out, i)) {
-      ++res.skipped;
-      if (kept && i == mine.front()) kept.reset();
-      continue;
-    }
-    todo.push_back(i);
-  }
+  // Only this shard writes its samples, so what was complete above still is.
+  const std::vector<uint64_t>& todo = pending;
+  res.skipped = int(mine.size() - pending.size());
   Progress prog(int(todo.size()), o.quiet);
   json per_sample = json::array();
   double render_total = 0;
   UselessSamples useless(ds.config, prog);
   for (uint64_t i : todo) {
     auto t0 = Clock::now();
-    const bool was_kept = kept && i == mine.front();
+    const bool was_kept = kept && i == pending.front();
     json t;
     try {
       Sample s = was_kept ? std::move(*kept) : makeSample(ds, seed, i);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <string>
 #include <unistd.h>
@@ -618,6 +619,23 @@ TEST(CompareInputs, ReadsPng8Png16ExrAndRejectsBadFiles) {
   EXPECT_THROW(readColorImage((tmp.path / "missing.png").string()), InputError);
   std::ofstream(tmp.path / "garbage.png") << "this is not a PNG";
   EXPECT_THROW(readColorImage((tmp.path / "garbage.png").string()), InputError);
+  // A JPEG cut short: libjpeg fills the rest with grey and only warns; that is refused.
+  {
+    std::ifstream in(kShared + "/data/scielab/hats.jpg", std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ASSERT_GT(bytes.size(), 1000u);
+    std::ofstream((tmp.path / "whole.jpg").string(), std::ios::binary) << bytes;
+    std::ofstream((tmp.path / "half.jpg").string(), std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+    EXPECT_EQ(readColorImage((tmp.path / "whole.jpg").string()).rgb.size(), cv::Size(192, 128));
+    try {
+      readColorImage((tmp.path / "half.jpg").string());
+      ADD_FAILURE() << "a truncated JPEG was read";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("half.jpg: the JPEG is damaged (JPEG error: Premature end of JPEG file"),
+                std::string::npos)
+          << e.what();
+    }
+  }
   EXPECT_THROW(readMaskImage(kHats, cv::Size(100, 100)), InputError);  // wrong size
   cv::Mat m = readMaskImage(kHats, cv::Size(192, 128));
   EXPECT_EQ(m.type(), CV_8U);

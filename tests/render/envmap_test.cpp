@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <unistd.h>
 #include <vector>
@@ -311,6 +312,16 @@ TEST_F(EnvMap, BadFilesThrowInputError) {
   std::ofstream(huge, std::ios::binary) << std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", ihdr) +
                                                chunk("IDAT", idat) + chunk("IEND", "");
   expectInputError(huge, "60000x60000; the largest taken is 32768x16384 pixels");
+  // A JPEG cut short decodes with a warning only (its lower part grey): refused; whole, it loads.
+  std::vector<float> sky(64 * 32 * 3);
+  for (size_t i = 0; i < sky.size(); ++i) sky[i] = float((i * 37) % 101) / 100.0f;
+  const std::string whole = writeImage("sky.jpg", 64, 32, 3, sky, OIIO::TypeDesc::UINT8);
+  EXPECT_NO_THROW(EnvironmentMap::load(whole));
+  std::ifstream in(whole, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string half = (dir_ / "half.jpg").string();
+  std::ofstream(half, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  expectInputError(half, "the environment map's JPEG is damaged (JPEG error: Premature end of JPEG file");
 }
 
 TEST_F(EnvMap, BlackMapCannotBeSampled) {

@@ -21,6 +21,17 @@ Scratch straightScratch() {
   Profile p = Profile::fromPolyline({{-0.05, 0.0}, {0.0, -0.03}, {0.05, 0.0}});
   return Scratch::fromProfile(ScratchPath::polyline({{5.0, 10.0}, {15.0, 10.0}}), p);
 }
+// A 20 mm plate in 5 mm triangles.
+TriangleMesh plate20() {
+  PlateParams pp;
+  pp.width_mm = 20;
+  pp.height_mm = 20;
+  return makePlate(pp, 5);
+}
+// A groove 0.08 mm wide and 0.02 mm deep with pile-ups 0.005 mm high.
+Profile pileUpProfile() {
+  return Profile::fromPolyline({{-0.04, 0.0}, {-0.03, 0.005}, {0.0, -0.02}, {0.03, 0.005}, {0.04, 0.0}});
+}
 }  // namespace
 
 TEST(ScratchGeometry, VerticesFollowTheCrossSectionAndNormalsAreTheFacets) {
@@ -140,13 +151,9 @@ TEST(ScratchGeometry, CellSizeDoesNotChangeTheSurface) {
 // the blocks into the mesh. Two crossing scratches at a fine cell (about 550,000 triangles, cells
 // spread over hundreds of subtrees and blocks) give the same mesh to the bit on 1 and 2 threads.
 TEST(ScratchGeometry, TheMeshIsTheSameWhateverTheThreadCount) {
-  PlateParams pp;
-  pp.width_mm = 20;
-  pp.height_mm = 20;
-  TriangleMesh plate = makePlate(pp, 5);
+  TriangleMesh plate = plate20();
   Scratch a = straightScratch();
-  Profile p = Profile::fromPolyline({{-0.04, 0.0}, {-0.03, 0.005}, {0.0, -0.02}, {0.03, 0.005}, {0.04, 0.0}});
-  Scratch b = Scratch::fromProfile(ScratchPath::polyline({{8.0, 4.0}, {12.0, 16.0}}), p);
+  Scratch b = Scratch::fromProfile(ScratchPath::polyline({{8.0, 4.0}, {12.0, 16.0}}), pileUpProfile());
   std::vector<const Scratch*> list{&a, &b};
   ScratchGeometryOptions o;
   o.cell_mm = 0.004;
@@ -189,13 +196,9 @@ TEST(ScratchGeometry, TheMeshIsTheSameWhateverTheThreadCount) {
 // figures and refuse exactly where building it would. Two crossing scratches with abrupt ends, so
 // that walls (two triangles per jump edge) are counted too.
 TEST(ScratchGeometry, CountingAloneGivesTheMeshsFiguresAndItsErrors) {
-  PlateParams pp;
-  pp.width_mm = 20;
-  pp.height_mm = 20;
-  TriangleMesh plate = makePlate(pp, 5);
+  TriangleMesh plate = plate20();
   Scratch a = straightScratch();
-  Profile p = Profile::fromPolyline({{-0.04, 0.0}, {-0.03, 0.005}, {0.0, -0.02}, {0.03, 0.005}, {0.04, 0.0}});
-  Scratch b = Scratch::fromProfile(ScratchPath::polyline({{8.0, 7.0}, {12.0, 13.0}}), p);
+  Scratch b = Scratch::fromProfile(ScratchPath::polyline({{8.0, 7.0}, {12.0, 13.0}}), pileUpProfile());
   std::vector<const Scratch*> list{&a, &b};
   ScratchGeometryStats full, counted;
   TriangleMesh m = scratchedMesh(plate, list, {}, &full);

@@ -434,7 +434,7 @@ GenerateResult runGenerate(const GenerateOptions& o) {
   } else {
     pending = mine;
   }
-  // Every sample's draws are checked (the error of the first sample that fails is the one
+  // Every pending sample's draws are checked (the error of the first sample that fails is the one
   // reported). The first sample is checked last and kept for the render loop: a scene can be dear
   // to build (scratched_door in the explicit-geometry reference mode cuts a mesh of 20 million
   // triangles, and building it twice was half of the run), and this way at most one is held at a

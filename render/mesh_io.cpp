@@ -278,11 +278,13 @@ void checkOffHeader(const std::string& path) {
 // 'end_header' or the first 64 KiB, as CGAL reads it: line by line, the first word the keyword.
 void checkPlyHeader(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
+  std::string text(65536, '\0');
+  in.read(&text[0], std::streamsize(text.size()));
+  text.resize(size_t(in.gcount()));
+  std::istringstream lines(text);
   std::string line;
-  size_t read = 0;
   bool element = false;
-  for (int number = 1; read < 65536 && std::getline(in, line); ++number) {
-    read += line.size() + 1;
+  for (int number = 1; std::getline(lines, line); ++number) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (number <= 2) continue;  // "ply" and the format: CGAL refuses those itself
     const std::vector<Token> tok = tokenize(line);

@@ -207,7 +207,8 @@ Field buildSchema() {
   Field target = vec("target", 3, "mm", {0, 0, 0}, -1e5, 1e5, "Point the light faces.");
   light.variants["environment"] = {
       radiance, path("map", "Latitude-longitude HDR/EXR map (any format OpenImageIO reads); "
-                     "replaces `radiance` when given. At most 32768 x 16384 pixels.", false),
+                     "replaces `radiance` when given. At most 32768 x 16384 pixels; a damaged JPEG "
+                     "(one that decodes only with a warning) is refused.", false),
       num("scale", "", 1, 0, 1e6, "Multiplier on the map."),
       num("rotation_deg", "deg", 0, -360, 360, "Rotation of the map about +z.")};
   light.variant_docs["environment"] = "Light from every direction: constant radiance or an HDR map (+z up).";

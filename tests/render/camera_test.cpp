@@ -379,6 +379,8 @@ TEST_F(Calibration, SaveLoadRoundTrip) {
 
 TEST_F(Calibration, Errors) {
   expectError((dir_ / "nothere.yml").string(), "not found");
+  expectError(write("empty.yml", ""), "the calibration file is empty");  // OpenCV's own word: "buf"
+  expectError(write("blank.yml", "\n  \n"), "the calibration file is empty");
   const std::string garbage =
       write("garbage.yml", "%YAML:1.0\n---\nimage_width: 3\ncamera_matrix: [ 1, 2\n  oops: {{{\n");
   expectError(garbage, "parse");

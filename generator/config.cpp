@@ -1,5 +1,6 @@
 #include "generator/config.h"
 
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -1058,6 +1059,43 @@ void refuseTags(const YAML::Node& n, const std::string& file, int depth = 0) {
     }
 }
 
+// yaml-cpp 0.7 (Debian's) loops for ever where a document should begin with a token that no
+// node can begin with, a stray ',' above all: its parser gives an empty document without taking
+// the token, LoadAll asks for the next document, which begins at the same token, and so on, a new
+// node each time, until the machine's memory runs out (a fuzzed config took 24 GB before the
+// kernel killed it; upstream jbeder/yaml-cpp#1040, fixed after 0.8 by #1319). So the documents
+// are first walked with the event parser, which stops at a document that begins where the one
+// before it began.
+struct DocumentStarts : YAML::EventHandler {
+  YAML::Mark start;
+  void OnDocumentStart(const YAML::Mark& mark) override { start = mark; }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+
+void refuseStuckDocuments(const std::string& text, const std::string& file) {
+  std::istringstream in(text);
+  YAML::Parser parser(in);
+  DocumentStarts starts;
+  int before = -1;
+  while (parser.HandleNextDocument(starts)) {
+    const YAML::Mark& m = starts.start;
+    if (m.pos == before) {
+      const char c = m.pos >= 0 && size_t(m.pos) < text.size() ? text[size_t(m.pos)] : '?';
+      throw InputError(file, m.line + 1, m.column + 1,
+                       std::string("malformed YAML: a value cannot begin with '") + c +
+                           "' (a ',' separates the items of a [...] or {...} list)");
+    }
+    before = m.pos;
+  }
+}
+
 }  // namespace
 
 Config parseConfig(const std::string& text, const std::string& file, std::vector<InputError>* all_errors) {
@@ -1066,6 +1104,7 @@ Config parseConfig(const std::string& text, const std::string& file, std::vector
   try {
     // All the documents: YAML::Load would read the first and drop the rest without a word (a
     // second config appended after `---`). An empty one (a '---' at the end) is let pass.
+    refuseStuckDocuments(text, file);
     std::vector<YAML::Node> docs = YAML::LoadAll(text);
     for (size_t k = 1; k < docs.size(); ++k)
       if (!docs[k].IsNull())

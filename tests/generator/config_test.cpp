@@ -100,6 +100,15 @@ TEST(Config, ASecondDocumentIsRefused) {
   EXPECT_EQ(errorOf("---\n" + std::string(kMinimal)), "");
 }
 
+// A ',' where a document's value should begin made yaml-cpp 0.7's LoadAll return empty documents
+// for ever, each a new node, until memory ran out (a fuzzed config whose comment lost its '#').
+TEST(Config, AStrayCommaIsRefusedNotLoopedOn) {
+  std::string e = errorOf("# a comment\n, the rest of it\n" + std::string(kMinimal));
+  EXPECT_NE(e.find("test.yaml:2:1: malformed YAML: a value cannot begin with ','"), std::string::npos) << e;
+  e = errorOf(std::string(kMinimal) + "---\n,\n");  // in a second document too
+  EXPECT_NE(e.find("test.yaml:9:1: malformed YAML: a value cannot begin with ','"), std::string::npos) << e;
+}
+
 TEST(Config, YamlTagsAreRefused) {
   // Each value is read by its field's type, so a tag was dropped without a word ('!!str 40' read
   // as 40, '!include x.yaml' as its bare file name).

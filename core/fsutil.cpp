@@ -72,6 +72,14 @@ std::string readTextFile(const fs::path& path) {
   return s.str();
 }
 
+std::string readFileHead(const fs::path& path, size_t bytes) {
+  std::ifstream in(path, std::ios::binary);
+  std::string head(bytes, '\0');
+  in.read(&head[0], std::streamsize(head.size()));
+  head.resize(size_t(in.gcount()));
+  return head;
+}
+
 std::string lowerExtension(const fs::path& path) {
   std::string ext = path.extension().string();
   for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));

@@ -20,6 +20,9 @@ void writeStreamAtomically(const std::filesystem::path& path, const std::functio
 // it is (nearly) full, that. writeAtomically reports the writers' I/O failures through it.
 [[noreturn]] void throwWriteError(const std::filesystem::path& path, const std::string& reason);
 std::string readTextFile(const std::filesystem::path& path);  // throws InputError if unreadable
+// At most the first `bytes` bytes of a file: all of it when it is shorter, "" when it cannot be
+// opened (for a look at a header before a library parses the file, which reports what is wrong).
+std::string readFileHead(const std::filesystem::path& path, size_t bytes);
 
 // A file name's extension in lower case, with its dot (".png"); "" if it has none.
 std::string lowerExtension(const std::filesystem::path& path);

@@ -262,16 +262,11 @@ CameraIntrinsics loadCalibration(const std::string& path) {
   if (!std::filesystem::is_regular_file(path, ec))
     throw InputError(path, "calibration file not found (expected an OpenCV FileStorage YAML, XML "
                            "or JSON file with camera_matrix and distortion_coefficients)");
-  {
-    // An empty file: OpenCV's parser only says "buf".
-    std::ifstream in(path, std::ios::binary);
-    std::string head(4096, '\0');
-    in.read(&head[0], std::streamsize(head.size()));
-    head.resize(size_t(in.gcount()));
-    if (head.find_first_not_of(" \t\r\n") == std::string::npos && in.eof())
-      throw InputError(path, "the calibration file is empty (expected an OpenCV FileStorage YAML, XML or JSON "
-                             "file with camera_matrix and distortion_coefficients)");
-  }
+  // An empty file (or only blanks): OpenCV's parser only says "buf".
+  const std::string head = readFileHead(path, 4096);
+  if (head.size() < 4096 && head.find_first_not_of(" \t\r\n") == std::string::npos)
+    throw InputError(path, "the calibration file is empty (expected an OpenCV FileStorage YAML, XML or JSON "
+                           "file with camera_matrix and distortion_coefficients)");
   cv::FileStorage fs;
   try {
     if (!fs.open(path, cv::FileStorage::READ))

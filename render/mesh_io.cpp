@@ -245,12 +245,8 @@ void soupToRaw(const std::string& path, const std::vector<CgalPoint>& pts,
 // Guards CGAL's OFF reader, which sizes its arrays from the header before reading: a header that
 // declares far more elements than the file can hold is reported instead of allocated.
 void checkOffHeader(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::string text(4096, '\0');
-  in.read(&text[0], std::streamsize(text.size()));
-  text.resize(size_t(in.gcount()));
   std::vector<std::string> tok;
-  std::istringstream lines(text);
+  std::istringstream lines(readFileHead(path, 4096));
   std::string l;
   while (std::getline(lines, l) && tok.size() < 5) {
     const size_t h = l.find('#');
@@ -277,11 +273,7 @@ void checkOffHeader(const std::string& path) {
 // scripts/fuzz-meshes, seed 13). The header is text even in a binary file; it is read up to
 // 'end_header' or the first 64 KiB, as CGAL reads it: line by line, the first word the keyword.
 void checkPlyHeader(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::string text(65536, '\0');
-  in.read(&text[0], std::streamsize(text.size()));
-  text.resize(size_t(in.gcount()));
-  std::istringstream lines(text);
+  std::istringstream lines(readFileHead(path, 65536));
   std::string line;
   bool element = false;
   for (int number = 1; std::getline(lines, line); ++number) {

@@ -475,11 +475,11 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       for (size_t k = 0; k < near.size(); ++k) {
         const std::vector<Vec2d>& pts = near[k]->referenceProfile().pts;
         kinks[k].assign(pts.size(), 1);
-        // The nearest point found above, within this narrower reach (the same point a query at it
-        // finds: the nearest segment within it is the nearest within the wider one too).
+        // The nearest point found above (a scratch is in `near` only within its cross-section's
+        // reach plus half the cell's diagonal, which is inside the reach plus `far` that the
+        // query for it at the cell's centre used to have).
         const PathPoint& pc = near_at[k];
-        const bool found = pc.distance <= float(near[k]->referenceProfile().halfExtent()) * near[k]->maxScale() + far;
-        const double kc = found && pc.beyond <= 0 ? double(near[k]->scaleAt(pc.s)) : 0.0;
+        const double kc = pc.beyond <= 0 ? double(near[k]->scaleAt(pc.s)) : 0.0;
         if (!(kc > 0)) continue;
         double last = pts[0].x;
         for (size_t i = 1; i < pts.size(); ++i) {

@@ -24,6 +24,10 @@ void parallelFor(size_t n, const std::function<void(size_t)>& body) {
   });
 }
 
+void parallelForSlices(size_t n, size_t slice, const std::function<void(size_t, size_t, size_t)>& body) {
+  parallelFor((n + slice - 1) / slice, [&](size_t s) { body(s, s * slice, std::min(n, (s + 1) * slice)); });
+}
+
 void populateInParallel(void* p, size_t bytes) {
 #ifdef MADV_POPULATE_WRITE
   constexpr size_t kSlice = size_t(32) << 20;  // 32 MiB a task
@@ -32,10 +36,8 @@ void populateInParallel(void* p, size_t bytes) {
   const uintptr_t a = (uintptr_t(p) + page - 1) / page * page;  // whole pages inside the range
   const uintptr_t b = (uintptr_t(p) + bytes) / page * page;
   if (b <= a) return;
-  const size_t n = (b - a + kSlice - 1) / kSlice;
-  parallelFor(n, [&](size_t i) {
-    const uintptr_t s = a + i * kSlice, e = std::min<uintptr_t>(b, s + kSlice);
-    madvise(reinterpret_cast<void*>(s), e - s, MADV_POPULATE_WRITE);  // a failure leaves it to first write
+  parallelForSlices(size_t(b - a), kSlice, [&](size_t, size_t begin, size_t end) {
+    madvise(reinterpret_cast<void*>(a + begin), end - begin, MADV_POPULATE_WRITE);  // a failure leaves it to first write
   });
 #else
   (void)p;

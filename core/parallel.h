@@ -22,6 +22,11 @@ class ThreadLimit {
 // Calls body(i) for i in [0, n) on the TBB pool, one item per task.
 void parallelFor(size_t n, const std::function<void(size_t)>& body);
 
+// Cuts [0, n) into slices of `slice` (the last one shorter) and calls body(s, begin, end) for
+// slice s on the TBB pool. The slices do not depend on the thread count, so per-slice results
+// gathered in slice order do not either.
+void parallelForSlices(size_t n, size_t slice, const std::function<void(size_t, size_t, size_t)>& body);
+
 // Asks the system for the pages of [p, p + bytes) now, on all threads (Linux's
 // MADV_POPULATE_WRITE, in slices). A fresh gigabyte-sized array is otherwise paged in by whichever
 // thread first writes it, and when one thread fills it that is serial: the scratch reference's

@@ -129,9 +129,8 @@ void TriangleMesh::computeMmPerUv() {
   resizeInParallel(mmPerUv, n);  // zeros
   if (uvs.size() != positions.size()) return;  // no chart: the scale is unknown (0 everywhere)
   // Each triangle on its own, in slices on all threads (a cut mesh has tens of millions).
-  constexpr size_t kSlice = 65536;
-  parallelFor((n + kSlice - 1) / kSlice, [&](size_t sl) {
-    for (size_t t = sl * kSlice; t < std::min(n, (sl + 1) * kSlice); ++t) {
+  parallelForSlices(n, 65536, [&](size_t, size_t begin, size_t end) {
+    for (size_t t = begin; t < end; ++t) {
       const uint32_t i0 = indices[3 * t], i1 = indices[3 * t + 1], i2 = indices[3 * t + 2];
       const double a3 = twiceArea3(positions[i0], positions[i1], positions[i2]);
       const Vec2d e1{double(uvs[i1].x) - uvs[i0].x, double(uvs[i1].y) - uvs[i0].y};

@@ -87,9 +87,9 @@ PartGeometry::PartGeometry(TriangleMesh mesh, TriangleMesh shell) : mesh_(std::m
   const size_t slices = (nt + kSlice - 1) / kSlice;
   std::vector<Box2> slice_uv(slices);
   std::vector<size_t> slice_degenerate(slices, 0);
-  parallelFor(slices, [&](size_t sl) {
+  parallelForSlices(nt, kSlice, [&](size_t sl, size_t begin, size_t end) {
     Box2& ub = slice_uv[sl];
-    for (size_t t = sl * kSlice; t < std::min(nt, (sl + 1) * kSlice); ++t) {
+    for (size_t t = begin; t < end; ++t) {
       const uint32_t* f = &mesh_.indices[3 * t];
       Vec3d p0(mesh_.positions[f[0]]), p1(mesh_.positions[f[1]]), p2(mesh_.positions[f[2]]);
       Vec3d e1 = p1 - p0, e2 = p2 - p0;

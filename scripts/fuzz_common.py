@@ -3,7 +3,7 @@ input and judging the outcome. A run passes when it either succeeds with finite 
 infinity in any EXR channel) and annotations that parse, or is refused with exit status 2, one
 message naming one of the input files, and no output folder. Anything else (a crash, another exit
 status, a refusal that names no input, a folder left behind, a NaN, a run past 300 s) fails."""
-import json, os, shutil, subprocess
+import argparse, json, os, random, shutil, subprocess, sys
 
 
 def finite_exr(path):
@@ -52,3 +52,36 @@ def run_one(binary, cfg, out, names):
     if not problem:
         shutil.rmtree(out, ignore_errors=True)
     return ("failed" if problem else "ok" if rc == 0 else "refused"), what, problem
+
+
+def start(prog, count, work):
+    """The fuzzers' options (--seed, --count, --binary, --work) and their start: returns the
+    arguments, a random generator seeded with --seed, the binary's absolute path and an emptied
+    folder WORK/SEED for the inputs and outputs."""
+    ap = argparse.ArgumentParser(prog=prog)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--count", type=int, default=count)
+    ap.add_argument("--binary", default="build/defectgen")
+    ap.add_argument("--work", default=work)
+    args = ap.parse_args()
+    out = os.path.abspath(os.path.join(args.work, str(args.seed)))
+    shutil.rmtree(out, ignore_errors=True)
+    os.makedirs(out)
+    return args, random.Random(args.seed), os.path.abspath(args.binary), out
+
+
+class Tally:
+    """Counts run_one's verdicts and ends the fuzzer with its summary line: exit status 1 when
+    any run failed."""
+
+    def __init__(self):
+        self.counts = {"ok": 0, "refused": 0, "failed": 0}
+
+    def add(self, kind):
+        self.counts[kind] += 1
+
+    def finish(self, n, inputs, where):
+        c = self.counts
+        print("%d %s: %d rendered, %d refused with a message, %d failed; %s"
+              % (n, inputs, c["ok"], c["refused"], c["failed"], where))
+        sys.exit(1 if c["failed"] else 0)

@@ -125,6 +125,31 @@ TEST(BsdfFresnel, ConductorMatchesComplexFresnelForEveryMetal) {
   }
 }
 
+// The three channels are computed at once (SSE2 lanes); each must be the one-channel function's
+// value to the bit, over every angle, every metal of the table, and the dielectric corners
+// (k = 0 with n above and below 1, where total internal reflection comes out of the lanes'
+// selects, and n = 1, k = 0 at exact grazing, the guarded 0 / 0).
+TEST(BsdfFresnel, ThreeChannelsAreEachChannelToTheBit) {
+  std::vector<std::pair<Rgb, Rgb>> media;
+  for (const MetalIor& metal : metalTable()) media.push_back({metal.eta, metal.k});
+  media.push_back({Rgb{1.5f, 1.0f, 1.0f / 1.5f}, Rgb{0.0f, 0.0f, 0.0f}});
+  media.push_back({Rgb{1.0f, 1.001f, 0.999f}, Rgb{0.0f, 1e-3f, 40.0f}});
+  int compared = 0;
+  for (const auto& [eta, k] : media)
+    for (int i = -2; i <= 1002; ++i) {
+      const float c = i / 1000.0f;  // a few outside [0, 1] too: they are clamped
+      const Rgb f = fresnelConductor(c, eta, k);
+      for (int ch = 0; ch < 3; ++ch) {
+        const float one = fresnelConductor(c, eta[ch], k[ch]), three = f[ch];
+        ASSERT_EQ(std::memcmp(&three, &one, sizeof(float)), 0)
+            << "cos " << c << " eta " << eta[ch] << " k " << k[ch] << ": " << f[ch] << " against " << one;
+        ++compared;
+      }
+    }
+  EXPECT_EQ(compared, int(media.size()) * 1005 * 3);
+  EXPECT_EQ(fresnelConductor(0.0f, Rgb(1.0f), Rgb(0.0f)), Rgb(1.0f));  // n = 1, k = 0 at grazing
+}
+
 TEST(BsdfFresnel, NormalIncidenceAndGrazing) {
   for (const MetalIor& metal : metalTable()) {
     for (int ch = 0; ch < 3; ++ch) {

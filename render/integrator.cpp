@@ -165,6 +165,7 @@ class Tracer {
       for (auto& d : *s.defects) {
         needs_cavity_ |= d->needsCavity();
         has_weathering_ |= d->cls() == DefectClass::Rust || d->cls() == DefectClass::Patina;
+        has_sampled_masks_ |= d->cls() != DefectClass::Scratch;
       }
     has_paint_ = s.paint != nullptr && s.material.kind == MaterialKind::CarPaint;
     if (has_defects_)
@@ -1764,6 +1765,9 @@ class Tracer {
   bool needs_cavity_ = false;
   bool has_paint_ = false;
   bool has_scratches_ = false;
+  // Whether a defect other than a scratch is present: their masks are sampled on the coverage
+  // grid (render()); a scratch's coverage is analytic.
+  bool has_sampled_masks_ = false;
   bool grooves_ = false;
   float max_height_ = 0, max_depth_ = 0, max_half_ = 0;  // over all scratches (mm)
   float tan_light_max_ = 6.0f;  // cap on the shadow reach toward grazing lights (Bosch §4.2.1)
@@ -1936,8 +1940,12 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
               if (sp.uv_ok) tracer.scratchCoverage(sp, h, -r.d, scov);
             }
           }
-          for (int j = 0; j < K; ++j)
-            for (int i = 0; i < K; ++i) {
+          // The other defects' masks, sampled on a K x K grid of primary rays. Where every defect
+          // is a scratch the grid finds nothing and is skipped, except to learn whether the tile
+          // sees the part at all (as far as one of its rays meets it); on the wash swirls at 1 spp
+          // it was a tenth of the render's time.
+          for (int j = 0; j < K && (tracer.has_sampled_masks_ || !tile_sees_part); ++j)
+            for (int i = 0; i < K && (tracer.has_sampled_masks_ || !tile_sees_part); ++i) {
               float px = x - 0.5f + (i + 0.5f) / K, py = y - 0.5f + (j + 0.5f) / K;
               DiffRay r = cameraRay(gen, px, py);
               Hit h = intersect(scene.part->scene(), r.o, r.d, 0.0f, kInf);

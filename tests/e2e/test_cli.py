@@ -178,7 +178,11 @@ class Generate(unittest.TestCase):
         away = SMALL.replace("  position: [{uniform: [-30, 30]}, -40, 420]\n",
                              "  position: [{uniform: [-30, 30]}, -40, 420]\n  target: [0, 0, 900]\n")
         self.assertNotEqual(away, SMALL)
-        for name, text in (("with_masks", away), ("no_defects", away.split("defects:")[0] + "defects: []\n")):
+        # Scratches alone: their masks need no sampled grid of rays, which the render then skips
+        # (it still learns from it whether the part is in view).
+        scratches = "defects:\n  - type: scratch\n    count: 3\n    region: [0.2, 0.2, 0.8, 0.8]\n"
+        for name, text in (("with_masks", away), ("no_defects", away.split("defects:")[0] + "defects: []\n"),
+                           ("scratches_only", away.split("defects:")[0] + scratches)):
             with self.subTest(name):
                 cfg = os.path.join(d, name + ".yaml")
                 with open(cfg, "w") as f:
@@ -194,7 +198,8 @@ class Generate(unittest.TestCase):
                 self.assertEqual(warnings[1], "defectgen: warning: 3 of 3 rendered samples do not show the part")
                 self.assertEqual(coco_reader.check_dataset(out)["annotations"], 0)
         # The same camera looking at the plate: no warning, whether with masks or without.
-        for name, text in (("in_view", SMALL), ("in_view_no_defects", SMALL.split("defects:")[0] + "defects: []\n")):
+        for name, text in (("in_view", SMALL), ("in_view_no_defects", SMALL.split("defects:")[0] + "defects: []\n"),
+                           ("in_view_scratches_only", SMALL.split("defects:")[0] + scratches)):
             cfg = os.path.join(d, name + ".yaml")
             with open(cfg, "w") as f:
                 f.write(text)

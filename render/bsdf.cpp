@@ -259,6 +259,35 @@ inline float microfacetReflection(MicrofacetModel model, float alpha, Vec3f wo, 
 
 inline Vec3f reflectAbout(Vec3f wo, Vec3f h) { return h * (2.0f * dot(wo, h)) - wo; }
 
+}  // namespace
+
+// The part of GGX visible-normal sampling that depends on wo alone: the stretched direction v, two
+// tangents around it and the blend that squashes the hidden half of the disk. A BsdfAt computes it
+// at its first sample and keeps it for the others (a groove footprint or a camera hit draws tens
+// of directions for one wo).
+VisibleNormalFrame::VisibleNormalFrame(float alpha, Vec3f wo) {
+  v = normalize(Vec3f(alpha * wo.x, alpha * wo.y, wo.z));
+  const float len2 = v.x * v.x + v.y * v.y;
+  t1 = len2 > 0.0f ? Vec3f(-v.y, v.x, 0.0f) / std::sqrt(len2) : Vec3f(1.0f, 0.0f, 0.0f);
+  t2 = cross(v, t1);
+  blend = 0.5f * (1.0f + v.z);
+}
+
+namespace {
+
+// The rest of it, for one u: a point on the disk seen from v, lifted onto the hemisphere and
+// unstretched.
+inline bool sampleVisibleNormal(const VisibleNormalFrame& f, float alpha, Vec2f u, Vec3f& h) {
+  const float phi = 2.0f * kPiF * u.y;
+  const float r = std::sqrt(u.x);
+  const float p1 = r * std::cos(phi);
+  float p2 = r * std::sin(phi);
+  p2 = (1.0f - f.blend) * safeSqrt(1.0f - p1 * p1) + f.blend * p2;
+  const Vec3f n = f.t1 * p1 + f.t2 * p2 + f.v * safeSqrt(1.0f - p1 * p1 - p2 * p2);
+  h = normalize(Vec3f(alpha * n.x, alpha * n.y, std::max(0.0f, n.z)));
+  return h.z > 0.0f;
+}
+
 // Samples a microfacet normal h for the given wo.
 //  GGX: the distribution of visible normals D_wo(h) = G1(wo) max(0, wo.h) D(h) / wo.z, sampled
 //       exactly with Heitz 2018 ("Sampling the GGX Distribution of Visible Normals", JCGT 7(4)):
@@ -270,21 +299,8 @@ inline Vec3f reflectAbout(Vec3f wo, Vec3f h) { return h * (2.0f * dot(wo, h)) - 
 // Returns false when the sample cannot give a reflection into the upper hemisphere.
 inline bool sampleMicrofacetNormal(MicrofacetModel model, float alpha, Vec3f wo, Vec2f u,
                                    Vec3f& h) {
+  if (model == MicrofacetModel::GGX) return sampleVisibleNormal(VisibleNormalFrame(alpha, wo), alpha, u, h);
   const float phi = 2.0f * kPiF * u.y;
-  if (model == MicrofacetModel::GGX) {
-    const Vec3f v = normalize(Vec3f(alpha * wo.x, alpha * wo.y, wo.z));
-    const float len2 = v.x * v.x + v.y * v.y;
-    Vec3f t1 = len2 > 0.0f ? Vec3f(-v.y, v.x, 0.0f) / std::sqrt(len2) : Vec3f(1.0f, 0.0f, 0.0f);
-    Vec3f t2 = cross(v, t1);
-    const float r = std::sqrt(u.x);
-    const float p1 = r * std::cos(phi);
-    float p2 = r * std::sin(phi);
-    const float blend = 0.5f * (1.0f + v.z);
-    p2 = (1.0f - blend) * safeSqrt(1.0f - p1 * p1) + blend * p2;
-    const Vec3f n = t1 * p1 + t2 * p2 + v * safeSqrt(1.0f - p1 * p1 - p2 * p2);
-    h = normalize(Vec3f(alpha * n.x, alpha * n.y, std::max(0.0f, n.z)));
-    return h.z > 0.0f;
-  }
   const float tan2 = -alpha * alpha * std::log1p(-u.x);
   const float cos_t = 1.0f / std::sqrt(1.0f + tan2);
   const float sin_t = std::sqrt(tan2) * cos_t;
@@ -864,6 +880,10 @@ bool BsdfAt::sample(float u0, Vec2f u, BsdfSample& out) const {
       const Vec3f o = ff.toLocal(wo);
       if (!(o.z > 0.0f) || !sampleMicrofacetNormal(m.model, alpha, o, u, h)) return false;
       wi = ff.toWorld(reflectAbout(o, h));
+    } else if (lobe == kSpec && m.model == MicrofacetModel::GGX) {
+      if (!vn_) vn_.emplace(alpha, wo);
+      if (!sampleVisibleNormal(*vn_, alpha, u, h)) return false;
+      wi = reflectAbout(wo, h);
     } else {
       if (!sampleMicrofacetNormal(m.model, alpha, wo, u, h)) return false;
       wi = reflectAbout(wo, h);

@@ -23,6 +23,7 @@
 //    See the comment above glassEval() in bsdf.cpp. base_color is not used.
 // Roughness r is perceptual: the microfacet alpha is r^2.
 #pragma once
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -97,6 +98,13 @@ float pdfBsdf(const Material& m, Vec3f wo, Vec3f wi);
 // sampleBsdf() are built on it, and evalPdf() shares the half vector and the distribution's value
 // between the two, so the values are the same to the bit whichever route computes them. The
 // material must outlive it.
+// GGX visible-normal sampling's terms that depend on wo alone (bsdf.cpp).
+struct VisibleNormalFrame {
+  VisibleNormalFrame(float alpha, Vec3f wo);
+  Vec3f v, t1, t2;
+  float blend;
+};
+
 class BsdfAt {
  public:
   BsdfAt(const Material& m, Vec3f wo);
@@ -120,6 +128,7 @@ class BsdfAt {
   Rgb fa_{0.0f}, fnk2_{0.0f};           // conductor: n^2 - k^2 - 1 and n^2 k^2 per channel
   float flake_alpha_ = 0.0f;            // car paint: the flake lobe's alpha
   float flake_lambda_wo_ = 0.0f;        // and its Smith Lambda(wo) (untilted flakes)
+  mutable std::optional<VisibleNormalFrame> vn_;  // the specular lobe's, from the first sample on
 };
 // u0 chooses a lobe (Glass: reflection or refraction), u chooses the direction. Returns false if no
 // direction was produced.

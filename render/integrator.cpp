@@ -1414,19 +1414,34 @@ class Tracer {
   // Direction j of n drawn from a footprint's portions: the portion by weight (stratum j of the
   // weights' sum), then a BSDF direction from it (the lobe and direction strata of `lhs`), and
   // where the rays leaving the portion that way go. False when the draw gives nothing.
+  // `bsdfs` (optional, one entry per portion) keeps each portion's frame and BSDF from its first
+  // draw on, for the many draws from the same portions (the same values as built anew).
+  struct PortionBsdf {
+    PortionBsdf(const Material& m, const Frame& f, Vec3f w) : fr(f), wo(w), bsdf(m, w) {}
+    Frame fr;
+    Vec3f wo;
+    BsdfAt bsdf;
+  };
   template <class Geometry>
   bool drawDirection(const Geometry& geo, const Material& top, const std::vector<typename Geometry::Portion>& portions,
                      double wsum, Vec3f wo_w, const LatinStrata& lhs, int j, int n, Rng& rng,
-                     Drawn<Geometry>& out) const {
-    const auto& p = portions[pickByWeight(portions, (j + rng.uniformD()) / n * wsum)];
+                     Drawn<Geometry>& out, std::vector<std::optional<PortionBsdf>>* bsdfs = nullptr) const {
+    const size_t pi = pickByWeight(portions, (j + rng.uniformD()) / n * wsum);
+    const auto& p = portions[pi];
     if (!(p.weight > 0)) return false;
     const Material& m = facetMaterial(geo.gs, geo.layer(p), top);
-    Frame fr = Frame::fromNormalTangent(geo.normal(p), geo.gs.T);
-    Vec3f wo = fr.toLocal(wo_w);
+    std::optional<PortionBsdf> local;
+    std::optional<PortionBsdf>& e = bsdfs ? (*bsdfs)[pi] : local;
+    if (!e) {
+      const Frame f = Frame::fromNormalTangent(geo.normal(p), geo.gs.T);
+      e.emplace(m, f, f.toLocal(wo_w));
+    }
+    const Frame& fr = e->fr;
+    const Vec3f wo = e->wo;
     BsdfSample bs;
     float ul = lhs.at(0, j, rng);
     Vec2f ud{lhs.at(1, j, rng), lhs.at(2, j, rng)};
-    if (wo.z <= 0 || !sampleBsdf(m, wo, ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z == 0) return false;
+    if (wo.z <= 0 || !e->bsdf.sample(ul, ud, bs) || !(bs.pdf > 0) || bs.wi.z == 0) return false;
     out.p = &p;
     out.d = fr.toWorld(bs.wi);
     out.pdf = bs.pdf;
@@ -1503,11 +1518,12 @@ class Tracer {
     // Latin-hypercube strata for the lobe choice and the direction; the portion choice takes
     // stratum j of the weights.
     LatinStrata lhs(nb, 3, rng);
+    std::vector<std::optional<PortionBsdf>> bsdfs(nb > 1 ? portions.size() : 0);
     for (int j = 0; j < nb; ++j) {
       // A portion chosen by weight, a BSDF direction from it, then the portions that direction
       // meets inside the groove (next level) and the share that escapes (an ordinary ray).
       Drawn<Geometry> dr;
-      if (!drawDirection(geo, top, portions, wsum, wo_w, lhs, j, nb, rng, dr)) continue;
+      if (!drawDirection(geo, top, portions, wsum, wo_w, lhs, j, nb, rng, dr, nb > 1 ? &bsdfs : nullptr)) continue;
       const auto& p = *dr.p;
       const Vec3f d = dr.d;
       const auto& sc = dr.sc;
@@ -1566,10 +1582,11 @@ class Tracer {
     const GrooveSet& gs = geo.gs;
     const Vec3f origin = aboveGrooves(gs);
     LatinStrata lhs(nm, 3, rng);
+    std::vector<std::optional<PortionBsdf>> bsdfs(portions.size());
     Rgb L(0.0f);
     for (int j = 0; j < nm; ++j) {
       Drawn<Geometry> dr;
-      if (!drawDirection(geo, top, portions, wsum, wo_w, lhs, j, nm, rng, dr)) continue;
+      if (!drawDirection(geo, top, portions, wsum, wo_w, lhs, j, nm, rng, dr, &bsdfs)) continue;
       const auto& p = *dr.p;
       const Vec3f d = dr.d;
       const auto& sc = dr.sc;

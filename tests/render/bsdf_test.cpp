@@ -1212,6 +1212,17 @@ TEST(Bsdf, EvalPdfAndSampleAgreeWithEvalAndPdfToTheBit) {
           ASSERT_TRUE(same(a.wi, b.wi) && same(a.f, b.f) && a.pdf == b.pdf) << label(m) << " i=" << i;
           ASSERT_TRUE(same(a.f, at.eval(a.wi))) << label(m) << " i=" << i;
           ASSERT_EQ(a.pdf, at.pdf(a.wi)) << label(m) << " i=" << i;
+          // Later draws from the same BsdfAt (which keeps the wo-only terms of its first draw)
+          // are the draws of a new one.
+          for (int k = 0; k < 3; ++k) {
+            const float v0 = rng.uniform();
+            const Vec2f v{rng.uniform(), rng.uniform()};
+            const bool okc = at.sample(v0, v, a), okd = sampleBsdf(m, wo, v0, v, b);
+            ASSERT_EQ(okc, okd) << label(m) << " i=" << i << " k=" << k;
+            if (okc) {
+              ASSERT_TRUE(same(a.wi, b.wi) && same(a.f, b.f) && a.pdf == b.pdf) << label(m) << " i=" << i;
+            }
+          }
         }
       }
     }

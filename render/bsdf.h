@@ -91,13 +91,6 @@ struct BsdfSample {
 Rgb evalBsdf(const Material& m, Vec3f wo, Vec3f wi);
 float pdfBsdf(const Material& m, Vec3f wo, Vec3f wi);
 
-// The BSDF at one shading point seen from a fixed outgoing direction wo: what depends on wo alone
-// (the lobe-selection probabilities, the coat's transmission toward wo, the specular lobe's alpha
-// and Smith Lambda(wo), a conductor's Fresnel terms that do not depend on the angle) is computed
-// once, so that many incident directions (light samples) cost less. evalBsdf(), pdfBsdf() and
-// sampleBsdf() are built on it, and evalPdf() shares the half vector and the distribution's value
-// between the two, so the values are the same to the bit whichever route computes them. The
-// material must outlive it.
 // GGX visible-normal sampling's terms that depend on wo alone (bsdf.cpp).
 struct VisibleNormalFrame {
   VisibleNormalFrame(float alpha, Vec3f wo);
@@ -105,6 +98,13 @@ struct VisibleNormalFrame {
   float blend;
 };
 
+// The BSDF at one shading point seen from a fixed outgoing direction wo: what depends on wo alone
+// (the lobe-selection probabilities, the coat's transmission toward wo, the specular lobe's alpha
+// and Smith Lambda(wo), a conductor's Fresnel terms that do not depend on the angle) is computed
+// once, so that many incident directions (light samples) cost less. evalBsdf(), pdfBsdf() and
+// sampleBsdf() are built on it, and evalPdf() shares the half vector and the distribution's value
+// between the two, so the values are the same to the bit whichever route computes them. The
+// material must outlive it.
 class BsdfAt {
  public:
   BsdfAt(const Material& m, Vec3f wo);

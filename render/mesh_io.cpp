@@ -319,6 +319,11 @@ RawMesh readWithCgal(const std::string& path, const std::string& ext) {
   const std::string format = ext == ".ply" ? "PLY" : ext == ".stl" ? "STL" : "OFF";
   if (ext == ".off") checkOffHeader(path);
   if (ext == ".ply") checkPlyHeader(path);
+  // A face or list longer than the file can hold: CGAL would allocate it first (mesh_text.h).
+  if (std::optional<meshtext::FileProblem> p = ext == ".off"   ? meshtext::oversizedOffFace(path)
+                                               : ext == ".ply" ? meshtext::oversizedPlyList(path)
+                                                               : std::nullopt)
+    throw InputError(path, p->line, p->column, p->what);
   if (ext == ".stl") checkBinaryStl(path);
   try {
     if (ext == ".ply") {

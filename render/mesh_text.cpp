@@ -1,5 +1,6 @@
 #include "render/mesh_text.h"
 
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -465,6 +466,199 @@ std::optional<FileProblem> diagnoseGltfJson(const std::string& path) {
     if (at == std::string::npos) at = 0;
     return place(at, "invalid JSON: " + why);
   }
+  return std::nullopt;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Lengths that the rest of the file cannot hold (oversizedOffFace, oversizedPlyList)
+
+namespace {
+
+std::string wholeFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// Whitespace-separated tokens of a text, with their lines and columns; `comment` (0: none) hides
+// the rest of a line.
+class TextCursor {
+ public:
+  TextCursor(std::string_view text, size_t from, int line, char comment)
+      : t_(text), i_(from), line_(line), line_start_(from), comment_(comment) {}
+  // The next token ("" at the end), its line and column.
+  std::string_view next() {
+    for (;;) {
+      while (i_ < t_.size() && std::isspace(static_cast<unsigned char>(t_[i_]))) newlineAt(i_++);
+      if (i_ < t_.size() && comment_ != 0 && t_[i_] == comment_) {
+        while (i_ < t_.size() && t_[i_] != '\n') ++i_;
+        continue;
+      }
+      break;
+    }
+    const size_t b = i_;
+    while (i_ < t_.size() && !std::isspace(static_cast<unsigned char>(t_[i_])) && !(comment_ != 0 && t_[i_] == comment_)) ++i_;
+    tok_line_ = line_;
+    tok_column_ = int(b - line_start_) + 1;
+    return t_.substr(b, i_ - b);
+  }
+  // Skips to the start of the next line that holds a token (the rest of this one is dropped).
+  void nextLine() {
+    while (i_ < t_.size() && t_[i_] != '\n') ++i_;
+  }
+  size_t left() const { return t_.size() - i_; }
+  int line() const { return tok_line_; }
+  int column() const { return tok_column_; }
+
+ private:
+  void newlineAt(size_t k) {
+    if (t_[k] == '\n') {
+      ++line_;
+      line_start_ = k + 1;
+    }
+  }
+  std::string_view t_;
+  size_t i_;
+  int line_, tok_line_ = 0, tok_column_ = 0;
+  size_t line_start_;
+  char comment_;
+};
+
+// A length the rest of the file cannot hold: an ASCII entry needs a character and a separator at
+// least, a binary one its size.
+std::string tooLong(const std::string& what, const std::string& of, long long n, size_t left) {
+  return what + ": " + of + " " + std::to_string(n) + ", more than the " + std::to_string(left) +
+         " bytes left in the file can hold";
+}
+
+}  // namespace
+
+std::optional<FileProblem> oversizedOffFace(const std::string& path) {
+  const std::string text = wholeFile(path);
+  TextCursor c(text, 0, 1, '#');
+  const std::string_view kw = c.next();
+  if (kw.size() < 3 || kw.substr(kw.size() - 3) != "OFF" || kw.find_first_of("n4") != std::string_view::npos)
+    return std::nullopt;
+  long counts[3];
+  for (int k = 0; k < 3; ++k) {
+    const std::string_view t = c.next();
+    if (k == 0 && t == "BINARY") return std::nullopt;
+    if (!parseLong(t, counts[k]) || counts[k] < 0) return std::nullopt;
+  }
+  // One vertex a line, as CGAL reads them (the rest of a line may hold a colour).
+  for (long v = 0; v < counts[0]; ++v) {
+    c.nextLine();
+    if (c.next().empty()) return std::nullopt;
+  }
+  for (long f = 0; f < counts[1]; ++f) {
+    c.nextLine();
+    const std::string_view t = c.next();
+    long k;
+    if (!parseLong(t, k)) return std::nullopt;  // not a count: the diagnoser says what it is
+    const std::string what = "face " + std::to_string(f) + " (counting from 0)";
+    if (k < 0) return FileProblem{c.line(), c.column(), what + ": expected its number of corners (an integer >= 3), found " + quoted(std::string(t))};
+    if (uint64_t(k) > c.left() / 2) return FileProblem{c.line(), c.column(), tooLong(what, "a corner count of", k, c.left())};
+  }
+  return std::nullopt;
+}
+
+std::optional<FileProblem> oversizedPlyList(const std::string& path) {
+  const std::string text = wholeFile(path);
+  // The header, line by line up to 'end_header' (as CGAL reads it).
+  struct Property {
+    std::string name;
+    int count_size = 0;  // a list's length type in bytes (0: a scalar)
+    bool count_signed = false;
+    int size = 0;        // the scalar's, or a list entry's, size in bytes
+  };
+  struct Element {
+    std::string name;
+    long count = 0;
+    std::vector<Property> props;
+  };
+  static const std::map<std::string, std::pair<int, bool>> kTypes = {  // type -> size, signed
+      {"char", {1, true}},   {"uchar", {1, false}}, {"short", {2, true}},  {"ushort", {2, false}},
+      {"int", {4, true}},    {"uint", {4, false}},  {"int8", {1, true}},   {"uint8", {1, false}},
+      {"int16", {2, true}},  {"uint16", {2, false}}, {"int32", {4, true}}, {"uint32", {4, false}},
+      {"float", {4, true}},  {"double", {8, true}}, {"float32", {4, true}}, {"float64", {8, true}}};
+  std::vector<Element> elements;
+  std::string format;
+  size_t pos = 0;
+  int line = 0;
+  for (;;) {
+    const size_t eol = text.find('\n', pos);
+    if (eol == std::string::npos) return std::nullopt;  // no end_header: CGAL refuses it
+    std::string l = text.substr(pos, eol - pos);
+    pos = eol + 1;
+    ++line;
+    if (!l.empty() && l.back() == '\r') l.pop_back();
+    const std::vector<Token> tok = tokenize(l);
+    if (tok.empty()) continue;
+    if (tok[0].text == "end_header") break;
+    if (tok[0].text == "format" && tok.size() >= 2) format = std::string(tok[1].text);
+    if (tok[0].text == "element") {
+      long n;
+      if (tok.size() != 3 || !parseLong(tok[2].text, n) || n < 0) return std::nullopt;
+      elements.push_back({std::string(tok[1].text), n, {}});
+    }
+    if (tok[0].text == "property") {
+      if (elements.empty()) return std::nullopt;
+      const bool list = tok.size() == 5 && tok[1].text == "list";
+      if (tok.size() != (list ? 5u : 3u)) return std::nullopt;
+      const auto item = kTypes.find(std::string(tok[list ? 3 : 1].text));
+      if (item == kTypes.end()) return std::nullopt;
+      Property p{std::string(tok.back().text), 0, false, item->second.first};
+      if (list) {
+        const auto count = kTypes.find(std::string(tok[2].text));
+        if (count == kTypes.end()) return std::nullopt;
+        p.count_size = count->second.first;
+        p.count_signed = count->second.second;
+      }
+      elements.back().props.push_back(p);
+    }
+  }
+  if (format == "ascii") {
+    TextCursor c(text, pos, line + 1, 0);
+    for (const Element& e : elements)
+      for (long r = 0; r < e.count; ++r)
+        for (const Property& p : e.props) {
+          const std::string_view t = c.next();
+          if (t.empty()) return std::nullopt;  // the file ends early: the diagnoser says where
+          if (p.count_size == 0) continue;
+          long k;
+          if (!parseLong(t, k)) return std::nullopt;
+          const std::string what = e.name + " " + std::to_string(r) + " (counting from 0)";
+          if (k < 0)
+            return FileProblem{c.line(), c.column(), what + ": expected the length of '" + p.name + "' (an integer >= 0), found " + quoted(std::string(t))};
+          if (uint64_t(k) > c.left() / 2)
+            return FileProblem{c.line(), c.column(), tooLong(what, "'" + p.name + "' of length", k, c.left())};
+          for (long j = 0; j < k; ++j) c.next();
+        }
+    return std::nullopt;
+  }
+  const bool big = format == "binary_big_endian";
+  if (!big && format != "binary_little_endian") return std::nullopt;
+  const auto* b = reinterpret_cast<const unsigned char*>(text.data());
+  size_t at = pos;
+  for (const Element& e : elements)
+    for (long r = 0; r < e.count; ++r)
+      for (const Property& p : e.props) {
+        if (p.count_size == 0) {
+          if (text.size() - at < size_t(p.size)) return std::nullopt;  // truncated: CGAL says so
+          at += size_t(p.size);
+          continue;
+        }
+        if (text.size() - at < size_t(p.count_size)) return std::nullopt;
+        uint64_t u = 0;
+        for (int k = 0; k < p.count_size; ++k) u = u << 8 | b[at + size_t(big ? k : p.count_size - 1 - k)];
+        const int bits = 8 * p.count_size;
+        const long long n = p.count_signed && (u >> (bits - 1)) ? (long long)u - ((long long)1 << bits) : (long long)u;
+        const std::string what = e.name + " " + std::to_string(r) + " (counting from 0), at byte " + std::to_string(at);
+        at += size_t(p.count_size);
+        if (n < 0) return FileProblem{0, 0, what + ": '" + p.name + "' has a negative length, " + std::to_string(n)};
+        const size_t left = text.size() - at;
+        if (uint64_t(n) > left / size_t(p.size)) return FileProblem{0, 0, tooLong(what, "'" + p.name + "' of length", n, left)};
+        at += size_t(n) * size_t(p.size);
+      }
   return std::nullopt;
 }
 

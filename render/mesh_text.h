@@ -41,6 +41,15 @@ std::optional<FileProblem> findNonFinite(const std::string& path);
 std::optional<FileProblem> diagnoseOff(const std::string& path);
 std::optional<FileProblem> diagnoseStl(const std::string& path);
 std::optional<FileProblem> diagnosePly(const std::string& path);
+// A face or list whose declared length the rest of the file cannot hold (or a negative one), in an
+// ASCII OFF file (a face's corner count) or a PLY file, ASCII or binary (any list property's
+// length). CGAL's readers size an array from that number before they read its entries, so one
+// bad count in a 5 KB file had them allocate and fill 12 to 17 GB for up to a minute before they
+// failed (scripts/fuzz-meshes seed 104 under AddressSanitizer). A pass over the file, before
+// CGAL reads it; nullopt where every length fits (or where the file is not in a form it reads:
+// CGAL and the diagnosers above report those). Binary OFF is not looked into.
+std::optional<FileProblem> oversizedOffFace(const std::string& path);
+std::optional<FileProblem> oversizedPlyList(const std::string& path);
 // A binary glTF's header and first chunk (magic, version 2, the declared length against the
 // file's, a JSON chunk that fits), which assimp reports only as "no suitable reader".
 std::optional<FileProblem> diagnoseGlb(const std::string& path);

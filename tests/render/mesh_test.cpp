@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <functional>
 #include <iterator>
@@ -603,6 +604,61 @@ TEST(LoadMesh, BadFilesThrowInputErrorsNamingTheFile) {
   EXPECT_NE(e.find("part.fbx"), std::string::npos) << e;
   EXPECT_NE(e.find("unsupported"), std::string::npos) << e;
   EXPECT_NE(e.find(".obj .ply .stl .off .gltf .glb"), std::string::npos) << e;
+}
+
+// A face or list whose length the rest of the file cannot hold: CGAL's readers allocated (and
+// zero-filled) that many entries before reading them, 12 to 17 GB for one bad number in a small
+// file (scripts/fuzz-meshes seed 104). They are refused before CGAL reads the file.
+TEST(LoadMesh, ListsLongerThanTheFileAreRefusedBeforeCgalReadsThem) {
+  const std::string dir = ::testing::TempDir();
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir + "/" + name, std::ios::binary) << text;
+    return dir + "/" + name;
+  };
+  std::string e = loadError(write("long_face.off", "OFF\r\n3 1 0\r\n0 0 0\r\n1 0 0\r\n# the face\r\n0 1 0\r\n"
+                                                   "1500000000 0 1 2\r\n"));
+  EXPECT_NE(e.find("long_face.off:7:1: face 0 (counting from 0): a corner count of 1500000000, more than the 8 bytes "
+                   "left in the file can hold"), std::string::npos) << e;
+  const std::string vertices = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n";
+  e = loadError(write("long_list.ply", "ply\nformat ascii 1.0\n" + vertices +
+                                         "element face 1\nproperty list uint int vertex_indices\nend_header\n"
+                                         "0 0 0\n1 0 0\n0 1 0\n4294967295 0 1 2\n"));
+  EXPECT_NE(e.find("long_list.ply:13:1: face 0 (counting from 0): 'vertex_indices' of length 4294967295, more than the "
+                   "7 bytes left in the file can hold"), std::string::npos) << e;
+  // Binary, little and big endian: the list's length read with its own type.
+  auto binary = [&](bool big, int32_t length) {
+    std::string header = std::string("ply\nformat binary_") + (big ? "big" : "little") + "_endian 1.0\n" + vertices +
+                         "element face 1\nproperty list int int vertex_indices\nend_header\n";
+    auto put = [&](uint32_t v) {
+      for (int k = 0; k < 4; ++k) header += char(big ? v >> (24 - 8 * k) : v >> (8 * k));
+    };
+    const float xyz[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    for (float x : xyz) {
+      uint32_t u;
+      std::memcpy(&u, &x, 4);
+      put(u);
+    }
+    put(uint32_t(length));
+    for (uint32_t i : {0u, 1u, 2u}) put(i);
+    return header;
+  };
+  const std::string little = binary(false, 2147483647);
+  const size_t at = little.size() - 16;  // the length's offset
+  e = loadError(write("long_list_le.ply", little));
+  EXPECT_NE(e.find("long_list_le.ply: face 0 (counting from 0), at byte " + std::to_string(at) +
+                   ": 'vertex_indices' of length 2147483647, more than the 12 bytes left in the file can hold"),
+            std::string::npos) << e;
+  const std::string negative = binary(true, -5);
+  e = loadError(write("negative_list_be.ply", negative));
+  EXPECT_NE(e.find("negative_list_be.ply: face 0 (counting from 0), at byte " + std::to_string(negative.size() - 16) +
+                   ": 'vertex_indices' has a negative length, -5"), std::string::npos) << e;
+  // The same files with the right length load (the guard reads both byte orders as CGAL does).
+  for (bool big : {false, true}) {
+    const std::string path = write(big ? "good_be.ply" : "good_le.ply", binary(big, 3));
+    const TriangleMesh m = loadMesh(path, {});
+    EXPECT_EQ(m.indices.size(), 3u) << path;
+    EXPECT_EQ(m.positions.size(), 3u) << path;
+  }
 }
 
 TEST(LoadMesh, MalformedFilesThrowInputErrors) {

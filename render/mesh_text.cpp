@@ -14,6 +14,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/fsutil.h"
+
 namespace dg::meshtext {
 
 bool parseDouble(std::string_view tok, double& out) {
@@ -127,18 +129,33 @@ std::optional<FileProblem> indices(const DataLine& l, size_t from, long count, l
   return std::nullopt;
 }
 
+// PLY's scalar types, with the sized aliases: bytes, signed, integer.
+struct PlyType {
+  int size;
+  bool is_signed, integer;
+};
+const PlyType* plyType(std::string_view name) {
+  static const std::map<std::string, PlyType, std::less<>> kTypes = {
+      {"char", {1, true, true}},    {"uchar", {1, false, true}},  {"short", {2, true, true}},
+      {"ushort", {2, false, true}}, {"int", {4, true, true}},      {"uint", {4, false, true}},
+      {"int8", {1, true, true}},    {"uint8", {1, false, true}},  {"int16", {2, true, true}},
+      {"uint16", {2, false, true}}, {"int32", {4, true, true}},   {"uint32", {4, false, true}},
+      {"float", {4, true, false}},  {"double", {8, true, false}}, {"float32", {4, true, false}},
+      {"float64", {8, true, false}}};
+  const auto it = kTypes.find(name);
+  return it == kTypes.end() ? nullptr : &it->second;
+}
+
 // A PLY value against its property's type: a float that a float holds, an integer in its range.
 std::optional<FileProblem> typed(const DataLine& l, const Tok& t, const std::string& type, const std::string& what) {
-  static const std::map<std::string, std::pair<double, double>> kRanges = {
-      {"char", {-128, 127}},          {"int8", {-128, 127}},           {"uchar", {0, 255}},   {"uint8", {0, 255}},
-      {"short", {-32768, 32767}},     {"int16", {-32768, 32767}},      {"ushort", {0, 65535}}, {"uint16", {0, 65535}},
-      {"int", {-2147483648.0, 2147483647.0}}, {"int32", {-2147483648.0, 2147483647.0}},
-      {"uint", {0, 4294967295.0}},    {"uint32", {0, 4294967295.0}}};
   double v;
-  const auto r = kRanges.find(type);
-  if (r != kRanges.end()) {
+  const PlyType* pt = plyType(type);
+  if (pt && pt->integer) {
+    const int bits = 8 * pt->size;
+    const double lo = pt->is_signed ? -std::ldexp(1.0, bits - 1) : 0.0;
+    const double hi = std::ldexp(1.0, pt->is_signed ? bits - 1 : bits) - 1.0;
     long n;
-    if (!parseLong(t.text, n) || double(n) < r->second.first || double(n) > r->second.second)
+    if (!parseLong(t.text, n) || double(n) < lo || double(n) > hi)
       return at(l, t, what + ": expected an integer that a " + type + " holds, found " + quoted(t.text));
     return std::nullopt;
   }
@@ -301,10 +318,6 @@ std::optional<FileProblem> diagnosePly(const std::string& path) {
     long count = 0;
     std::vector<Property> props;
   };
-  static const std::map<std::string, bool> kTypes = {  // type -> integer
-      {"char", true},   {"uchar", true},  {"short", true},  {"ushort", true},  {"int", true},    {"uint", true},
-      {"int8", true},   {"uint8", true},  {"int16", true},  {"uint16", true},  {"int32", true},  {"uint32", true},
-      {"float", false}, {"double", false}, {"float32", false}, {"float64", false}};
   std::vector<Element> elements;
   bool ascii = false, format = false;
   size_t li = 1;
@@ -331,7 +344,7 @@ std::optional<FileProblem> diagnosePly(const std::string& path) {
       const size_t want = list ? 5 : 3;
       if (l.tok.size() != want) return at(l, l.tok[0], list ? "expected 'property list COUNT_TYPE INDEX_TYPE NAME'" : "expected 'property TYPE NAME'");
       for (size_t k = list ? 2 : 1; k + 1 < want; ++k)
-        if (!kTypes.count(l.tok[k].text))
+        if (!plyType(l.tok[k].text))
           return at(l, l.tok[k], "expected a PLY type (char, uchar, short, ushort, int, uint, float, double, ...), found " + quoted(l.tok[k].text));
       elements.back().props.push_back({l.tok[want - 1].text, list, l.tok[want - 2].text});
     } else {
@@ -474,11 +487,6 @@ std::optional<FileProblem> diagnoseGltfJson(const std::string& path) {
 
 namespace {
 
-std::string wholeFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
 // Whitespace-separated tokens of a text, with their lines and columns; `comment` (0: none) hides
 // the rest of a line.
 class TextCursor {
@@ -533,7 +541,7 @@ std::string tooLong(const std::string& what, const std::string& of, long long n,
 }  // namespace
 
 std::optional<FileProblem> oversizedOffFace(const std::string& path) {
-  const std::string text = wholeFile(path);
+  const std::string text = readTextFile(path);
   TextCursor c(text, 0, 1, '#');
   const std::string_view kw = c.next();
   if (kw.size() < 3 || kw.substr(kw.size() - 3) != "OFF" || kw.find_first_of("n4") != std::string_view::npos)
@@ -562,7 +570,7 @@ std::optional<FileProblem> oversizedOffFace(const std::string& path) {
 }
 
 std::optional<FileProblem> oversizedPlyList(const std::string& path) {
-  const std::string text = wholeFile(path);
+  const std::string text = readTextFile(path);
   // The header, line by line up to 'end_header' (as CGAL reads it).
   struct Property {
     std::string name;
@@ -575,11 +583,6 @@ std::optional<FileProblem> oversizedPlyList(const std::string& path) {
     long count = 0;
     std::vector<Property> props;
   };
-  static const std::map<std::string, std::pair<int, bool>> kTypes = {  // type -> size, signed
-      {"char", {1, true}},   {"uchar", {1, false}}, {"short", {2, true}},  {"ushort", {2, false}},
-      {"int", {4, true}},    {"uint", {4, false}},  {"int8", {1, true}},   {"uint8", {1, false}},
-      {"int16", {2, true}},  {"uint16", {2, false}}, {"int32", {4, true}}, {"uint32", {4, false}},
-      {"float", {4, true}},  {"double", {8, true}}, {"float32", {4, true}}, {"float64", {8, true}}};
   std::vector<Element> elements;
   std::string format;
   size_t pos = 0;
@@ -604,14 +607,14 @@ std::optional<FileProblem> oversizedPlyList(const std::string& path) {
       if (elements.empty()) return std::nullopt;
       const bool list = tok.size() == 5 && tok[1].text == "list";
       if (tok.size() != (list ? 5u : 3u)) return std::nullopt;
-      const auto item = kTypes.find(std::string(tok[list ? 3 : 1].text));
-      if (item == kTypes.end()) return std::nullopt;
-      Property p{std::string(tok.back().text), 0, false, item->second.first};
+      const PlyType* item = plyType(tok[list ? 3 : 1].text);
+      if (!item) return std::nullopt;
+      Property p{std::string(tok.back().text), 0, false, item->size};
       if (list) {
-        const auto count = kTypes.find(std::string(tok[2].text));
-        if (count == kTypes.end()) return std::nullopt;
-        p.count_size = count->second.first;
-        p.count_signed = count->second.second;
+        const PlyType* count = plyType(tok[2].text);
+        if (!count) return std::nullopt;
+        p.count_size = count->size;
+        p.count_signed = count->is_signed;
       }
       elements.back().props.push_back(p);
     }

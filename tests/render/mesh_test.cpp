@@ -707,6 +707,13 @@ TEST(LoadMesh, MalformedFilesThrowInputErrors) {
   e = loadError(write("bad_index.ply", ply_header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n"));
   EXPECT_NE(e.find("bad_index.ply:13:7: face 0 (counting from 0): expected a vertex index from 0 to 2, found '3'"),
             std::string::npos) << e;
+  // An integer property's range comes from its type's size and sign: -32768 fits a short, 32768 not.
+  e = loadError(write("short_range.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                         "property float z\nproperty short s\nelement face 1\n"
+                                         "property list uchar int vertex_indices\nend_header\n"
+                                         "0 0 0 1\n1 0 0 -32768\n0 1 0 32768\n3 0 1 2\n"));
+  EXPECT_NE(e.find("short_range.ply:13:7: vertex 2 (counting from 0): 's': expected an integer that a short holds, "
+                   "found '32768'"), std::string::npos) << e;
   e = loadError(write("bad_type.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty flaot x\nend_header\n0\n1\n2\n"));
   EXPECT_NE(e.find("bad_type.ply:4:10: expected a PLY type"), std::string::npos) << e;
   // A header whose 'element vertex' line is lost: CGAL's reader crashed on the property after it.

@@ -227,19 +227,41 @@ RawMesh readObj(const std::string& path) {
 // split into a fan from their first corner (exact for convex polygons, which is what these
 // formats hold in practice).
 
+// A polygon as a fan of triangles around its first corner.
+template <class Polygon>
+void addFan(const Polygon& poly, RawMesh& raw) {
+  for (size_t k = 1; k + 1 < poly.size(); ++k)
+    raw.tris.push_back({uint32_t(poly[0]), uint32_t(poly[k]), uint32_t(poly[k + 1])});
+}
+
 void soupToRaw(const std::string& path, const std::vector<CgalPoint>& pts,
                const std::vector<std::vector<std::size_t>>& polys, RawMesh& raw) {
   raw.pos.reserve(pts.size());
   for (const CgalPoint& p : pts) raw.pos.push_back({p.x(), p.y(), p.z()});
   for (size_t f = 0; f < polys.size(); ++f) {
     const auto& poly = polys[f];
+    // CGAL reads a face of one or two corners (a point, an edge) without complaint; it has no
+    // surface, and was dropped silently before.
+    if (poly.size() < 3)
+      throw InputError(path, "face " + std::to_string(f) + " (counting from 0) has " + std::to_string(poly.size()) +
+                                 " corners; a face needs at least 3");
     for (std::size_t i : poly)
       if (i >= pts.size())
         throw InputError(path, "face " + std::to_string(f) + " refers to vertex " + std::to_string(i) +
                                    " but the file has only " + std::to_string(pts.size()) + " vertices");
-    for (size_t k = 1; k + 1 < poly.size(); ++k)
-      raw.tris.push_back({uint32_t(poly[0]), uint32_t(poly[k]), uint32_t(poly[k + 1])});
+    addFan(poly, raw);
   }
+}
+
+// A binary OFF file, read by meshtext::readBinaryOff (CGAL misreads it), as a RawMesh.
+RawMesh binaryOffToRaw(const std::string& path, const meshtext::BinaryOff& bin) {
+  if (bin.problem) throw InputError(path, bin.problem->line, bin.problem->column, bin.problem->what);
+  RawMesh raw;
+  for (const auto& p : bin.mesh.pos) raw.pos.push_back({p[0], p[1], p[2]});
+  for (const auto& n : bin.mesh.nrm) raw.nrm.push_back({n[0], n[1], n[2]});
+  for (const auto& t : bin.mesh.uv) raw.uv.push_back({t[0], t[1]});
+  for (const auto& face : bin.mesh.faces) addFan(face, raw);
+  return raw;
 }
 
 // Guards CGAL's OFF reader, which sizes its arrays from the header before reading: a header that
@@ -255,13 +277,11 @@ void checkOffHeader(const std::string& path) {
   }
   if (tok.empty() || tok[0].size() < 3 || tok[0].compare(tok[0].size() - 3, 3, "OFF") != 0) return;
   if (tok[0].find('n') != std::string::npos) return;  // nOFF: dimension first; leave it to CGAL
-  const bool binary = tok.size() > 1 && tok[1] == "BINARY";
-  const size_t first = binary ? 2 : 1;
-  long nv, nf;
-  if (tok.size() < first + 2 || !parseLong(tok[first], nv) || !parseLong(tok[first + 1], nf)) return;
+  long nv, nf;  // (binary OFF is read by meshtext::readBinaryOff)
+  if (tok.size() < 3 || !parseLong(tok[1], nv) || !parseLong(tok[2], nf)) return;
   if (nv < 0 || nf < 0) throw InputError(path, "OFF header has a negative vertex or face count");
   const double bytes = double(fs::file_size(path));
-  const double need = binary ? 12.0 * nv + 16.0 * nf : 6.0 * nv + 8.0 * nf;
+  const double need = 6.0 * nv + 8.0 * nf;
   if (need > bytes)
     throw InputError(path, "OFF header declares " + std::to_string(nv) + " vertices and " +
                                std::to_string(nf) + " faces, more than a " +
@@ -317,7 +337,11 @@ RawMesh readWithCgal(const std::string& path, const std::string& ext) {
   std::vector<Kernel::Point_2> texcoords;
   bool ok = false;
   const std::string format = ext == ".ply" ? "PLY" : ext == ".stl" ? "STL" : "OFF";
-  if (ext == ".off") checkOffHeader(path);
+  if (ext == ".off") {
+    const meshtext::BinaryOff bin = meshtext::readBinaryOff(path);
+    if (bin.binary) return binaryOffToRaw(path, bin);
+    checkOffHeader(path);
+  }
   if (ext == ".ply") checkPlyHeader(path);
   // A face or list longer than the file can hold: CGAL would allocate it first (mesh_text.h).
   if (std::optional<meshtext::FileProblem> p = ext == ".off"   ? meshtext::oversizedOffFace(path)

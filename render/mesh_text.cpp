@@ -514,6 +514,7 @@ class TextCursor {
     while (i_ < t_.size() && t_[i_] != '\n') ++i_;
   }
   size_t left() const { return t_.size() - i_; }
+  size_t offset() const { return i_; }  // just past the last token
   int line() const { return tok_line_; }
   int column() const { return tok_column_; }
 
@@ -567,6 +568,100 @@ std::optional<FileProblem> oversizedOffFace(const std::string& path) {
     if (uint64_t(k) > c.left() / 2) return FileProblem{c.line(), c.column(), tooLong(what, "a corner count of", k, c.left())};
   }
   return std::nullopt;
+}
+
+BinaryOff readBinaryOff(const std::string& path) {
+  BinaryOff r;
+  const std::string text = readTextFile(path);
+  TextCursor c(text, 0, 1, '#');
+  const std::string_view kw = c.next();
+  const int kw_line = c.line(), kw_column = c.column();
+  if (kw.size() < 3 || kw.substr(kw.size() - 3) != "OFF" || c.next() != "BINARY") return r;
+  r.binary = true;
+  auto fail = [&](int line, int column, const std::string& what) {
+    r.problem = FileProblem{line, column, what};
+    r.mesh = OffMesh{};
+    return r;
+  };
+  bool normals = false, texcoords = false;
+  for (size_t i = 0; i + 3 < kw.size();) {
+    if (kw.substr(i, 2) == "ST") {
+      texcoords = true;
+      i += 2;
+    } else if (kw[i] == 'N') {
+      normals = true;
+      ++i;
+    } else {
+      return fail(kw_line, kw_column, "binary " + quoted(std::string(kw)) + " is not read (binary OFF, NOFF, STOFF and STNOFF "
+                                      "are; vertex colours, 4OFF and nOFF only in ASCII)");
+    }
+  }
+  const size_t eol = text.find('\n', c.offset());
+  if (eol == std::string::npos) return fail(c.line(), c.column(), "expected a newline after BINARY, then the binary data");
+  const auto* b = reinterpret_cast<const unsigned char*>(text.data());
+  size_t at = eol + 1;
+  auto word = [&](size_t k) { return uint32_t(b[k]) << 24 | uint32_t(b[k + 1]) << 16 | uint32_t(b[k + 2]) << 8 | b[k + 3]; };
+  auto left = [&] { return text.size() - at; };
+  auto where = [&](const std::string& what) { return what + ", at byte " + std::to_string(at); };
+  auto integer = [&] { const int32_t v = int32_t(word(at)); at += 4; return v; };
+  auto real = [&] {
+    const uint32_t w = word(at);
+    at += 4;
+    float f;
+    std::memcpy(&f, &w, 4);
+    return double(f);
+  };
+  if (left() < 12) return fail(0, 0, where("the vertex, face and edge counts") + ": expected 12 bytes, the file has " + std::to_string(left()));
+  const int32_t nv = integer(), nf = integer();
+  at += 4;  // the edge count, unused
+  if (nv < 0 || nf < 0)
+    return fail(0, 0, "the header declares " + std::to_string(nv) + " vertices and " + std::to_string(nf) + " faces; expected counts >= 0");
+  const size_t per_vertex = 4 * (3 + (normals ? 3 : 0) + (texcoords ? 2 : 0));
+  // A face takes 20 bytes at least: its corner count, 3 corners and its colour count.
+  if (uint64_t(nv) * per_vertex + uint64_t(nf) * 20 > left())
+    return fail(0, 0, "the header declares " + std::to_string(nv) + " vertices of " + std::to_string(per_vertex) + " bytes and " +
+                          std::to_string(nf) + " faces, more than the " + std::to_string(left()) +
+                          " bytes after it can hold (truncated file?)");
+  OffMesh& m = r.mesh;
+  m.pos.resize(size_t(nv));
+  if (normals) m.nrm.resize(size_t(nv));
+  if (texcoords) m.uv.resize(size_t(nv));
+  for (int32_t v = 0; v < nv; ++v) {
+    const size_t start = at;
+    double* fields[3] = {m.pos[size_t(v)].data(), normals ? m.nrm[size_t(v)].data() : nullptr,
+                         texcoords ? m.uv[size_t(v)].data() : nullptr};
+    for (int g = 0; g < 3; ++g)
+      for (int k = 0; fields[g] && k < (g == 2 ? 2 : 3); ++k) {
+        fields[g][k] = real();
+        if (!std::isfinite(fields[g][k]))
+          return fail(0, 0, "vertex " + std::to_string(v) + " (counting from 0), at byte " + std::to_string(start) +
+                                ": expected finite numbers, found " + std::to_string(fields[g][k]));
+      }
+  }
+  m.faces.resize(size_t(nf));
+  for (int32_t f = 0; f < nf; ++f) {
+    const std::string what = "face " + std::to_string(f) + " (counting from 0)";
+    if (left() < 4)
+      return fail(0, 0, "the file ends after " + std::to_string(f) + " of the " + std::to_string(nf) + " faces the header declares");
+    const std::string head = where(what);
+    const int32_t k = integer();
+    if (k < 3) return fail(0, 0, head + ": expected its number of corners (an integer >= 3), found " + std::to_string(k));
+    if (uint64_t(k) + 1 > left() / 4) return fail(0, 0, tooLong(head, "a corner count of", k, left()));
+    std::vector<uint32_t>& face = m.faces[size_t(f)];
+    face.resize(size_t(k));
+    for (uint32_t& i : face) {
+      const int32_t v = integer();
+      if (v < 0 || v >= nv)
+        return fail(0, 0, head + ": expected a vertex index from 0 to " + std::to_string(nv - 1) + ", found " + std::to_string(v));
+      i = uint32_t(v);
+    }
+    const int32_t colours = integer();
+    if (colours < 0 || colours > 4 || size_t(colours) * 4 > left())
+      return fail(0, 0, head + ": expected its number of colour components (0 to 4, as many floats after it), found " +
+                            std::to_string(colours) + (colours >= 0 && colours <= 4 ? " with " + std::to_string(left()) + " bytes left" : ""));
+    at += size_t(colours) * 4;
+  }
+  return r;
 }
 
 std::optional<FileProblem> oversizedPlyList(const std::string& path) {

@@ -3,6 +3,8 @@
 // only say that they failed; these find the first line and column that break the format, and say
 // what was expected there. Kept out of mesh_io.cpp, the one translation unit that includes CGAL.
 #pragma once
+#include <array>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -47,9 +49,32 @@ std::optional<FileProblem> diagnosePly(const std::string& path);
 // bad count in a 5 KB file had them allocate and fill 12 to 17 GB for up to a minute before they
 // failed (scripts/fuzz-meshes seed 104 under AddressSanitizer). A pass over the file, before
 // CGAL reads it; nullopt where every length fits (or where the file is not in a form it reads:
-// CGAL and the diagnosers above report those). Binary OFF is not looked into.
+// CGAL and the diagnosers above report those). Binary OFF is readBinaryOff's.
 std::optional<FileProblem> oversizedOffFace(const std::string& path);
 std::optional<FileProblem> oversizedPlyList(const std::string& path);
+// A binary OFF file: Geomview's "OFF BINARY" (the keyword, the word BINARY, and from the byte
+// after the next newline big-endian 32-bit integers and floats: the vertex, face and edge counts,
+// each vertex's x y z [nx ny nz] [s t] after the keyword's N and ST, each face's corner count, its
+// corners, and a colour of 0 to 4 floats after its count). Read here, not by CGAL: CGAL 5.5's
+// polygon-soup reader does not skip a face's colour count, so it reads every face after the first
+// from the wrong bytes (a two-triangle quad came back as one triangle and an empty face), and it
+// sizes a face from its count before reading it. `binary` false: the file is not binary OFF (CGAL
+// reads it). A problem names the element and its byte offset: counts the file cannot hold, a face
+// of fewer than 3 corners, a corner that is not a declared vertex, a coordinate that is not
+// finite, a colour count outside 0 to 4, a file that ends early. The keywords whose binary
+// layout readers disagree on (C: 3 or 4 floats a colour) or that need more than 3 dimensions
+// (4, n) are refused by name.
+struct OffMesh {
+  std::vector<std::array<double, 3>> pos, nrm;  // nrm: empty, or one per vertex
+  std::vector<std::array<double, 2>> uv;        // empty, or one per vertex
+  std::vector<std::vector<uint32_t>> faces;
+};
+struct BinaryOff {
+  bool binary = false;
+  std::optional<FileProblem> problem;
+  OffMesh mesh;
+};
+BinaryOff readBinaryOff(const std::string& path);
 // A binary glTF's header and first chunk (magic, version 2, the declared length against the
 // file's, a JSON chunk that fits), which assimp reports only as "no suitable reader".
 std::optional<FileProblem> diagnoseGlb(const std::string& path);

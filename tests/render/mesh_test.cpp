@@ -332,6 +332,61 @@ TEST(LoadMesh, ObjWithTexcoordsAndNormals) {
   EXPECT_GT(g.z, 0);
 }
 
+// Binary OFF (Geomview's "OFF BINARY"), with a colour after the first face: CGAL 5.5's reader
+// took that colour's count for the next face's corner count and returned one of the two quads.
+TEST(LoadMesh, BinaryOffWithNormalsTexcoordsAndFaceColours) {
+  const TriangleMesh m = loadMesh(fixture("quads_binary.off"));
+  EXPECT_EQ(m.triangleCount(), 4u);  // two quads, fan-split
+  EXPECT_EQ(m.positions.size(), 6u);
+  expectBounds(m, {0, 0, 0}, {20, 10, 0});
+  EXPECT_NEAR(m.surfaceAreaMm2(), 200.0, 1e-9);
+  for (size_t i = 0; i < m.positions.size(); ++i) {  // st = position / 20, scaled to mm
+    EXPECT_NEAR(m.uvs[i].x, m.positions[i].x, 1e-4) << i;
+    EXPECT_NEAR(m.uvs[i].y, m.positions[i].y, 1e-4) << i;
+    EXPECT_EQ(m.normals[i], Vec3f(0, 0, 1));
+  }
+}
+
+TEST(LoadMesh, BadBinaryOffIsRefusedWithTheByteItBreaksAt) {
+  const std::string good = readFile(fixture("quads_binary.off"));
+  const size_t data = good.find('\n') + 1;
+  const size_t face0 = data + 12 + 6 * 32, face1 = face0 + 4 + 16 + 4 + 16;
+  auto put = [](std::string s, size_t at, uint32_t v) {
+    for (int k = 0; k < 4; ++k) s[at + size_t(k)] = char(v >> (24 - 8 * k));
+    return s;
+  };
+  const std::string dir = ::testing::TempDir();
+  auto error = [&](const std::string& name, const std::string& bytes) {
+    std::ofstream(dir + "/" + name, std::ios::binary) << bytes;
+    return loadError(dir + "/" + name);
+  };
+  std::string e = error("long.off", put(good, face1, 1500000000));
+  EXPECT_NE(e.find("long.off: face 1 (counting from 0), at byte " + std::to_string(face1) +
+                   ": a corner count of 1500000000, more than the 20 bytes left in the file can hold"), std::string::npos) << e;
+  e = error("two.off", put(good, face1, 2));
+  EXPECT_NE(e.find("face 1 (counting from 0), at byte " + std::to_string(face1) +
+                   ": expected its number of corners (an integer >= 3), found 2"), std::string::npos) << e;
+  e = error("index.off", put(good, face1 + 8, 6));
+  EXPECT_NE(e.find("face 1 (counting from 0), at byte " + std::to_string(face1) + ": expected a vertex index from 0 to 5, found 6"),
+            std::string::npos) << e;
+  e = error("colours.off", put(good, face0 + 20, 5));
+  EXPECT_NE(e.find("face 0 (counting from 0), at byte " + std::to_string(face0) +
+                   ": expected its number of colour components (0 to 4, as many floats after it), found 5"), std::string::npos) << e;
+  e = error("counts.off", put(good, data, 1000000));
+  EXPECT_NE(e.find("counts.off: the header declares 1000000 vertices of 32 bytes and 2 faces, more than the"), std::string::npos) << e;
+  e = error("nan.off", put(good, data + 12 + 32 + 4, 0x7fc00000u));
+  EXPECT_NE(e.find("vertex 1 (counting from 0), at byte " + std::to_string(data + 12 + 32) + ": expected finite numbers, found nan"),
+            std::string::npos) << e;
+  e = error("short.off", good.substr(0, face1 + 2));
+  EXPECT_NE(e.find("short.off: the file ends after 1 of the 2 faces the header declares"), std::string::npos) << e;
+  e = error("colour.off", "C" + good.substr(2));  // "CNOFF BINARY": a vertex colour's size is not agreed on
+  EXPECT_NE(e.find("colour.off:1:1: binary 'CNOFF' is not read"), std::string::npos) << e;
+  // In ASCII, CGAL read a face of two corners and the loader dropped it without a word.
+  e = error("edge.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n2 0 2\n");
+  EXPECT_NE(e.find("edge.off:8:1: face 1 (counting from 0): expected its number of corners (an integer >= 3), found '2'"),
+            std::string::npos) << e;
+}
+
 TEST(LoadMesh, UnitScaleIsApplied) {
   MeshLoadOptions o;
   o.unit_scale_to_mm = 2.5;

@@ -264,30 +264,6 @@ RawMesh binaryOffToRaw(const std::string& path, const meshtext::BinaryOff& bin) 
   return raw;
 }
 
-// Guards CGAL's OFF reader, which sizes its arrays from the header before reading: a header that
-// declares far more elements than the file can hold is reported instead of allocated.
-void checkOffHeader(const std::string& path) {
-  std::vector<std::string> tok;
-  std::istringstream lines(readFileHead(path, 4096));
-  std::string l;
-  while (std::getline(lines, l) && tok.size() < 5) {
-    const size_t h = l.find('#');
-    if (h != std::string::npos) l.resize(h);
-    for (const Token& t : tokenize(l)) tok.emplace_back(t.text);
-  }
-  if (tok.empty() || tok[0].size() < 3 || tok[0].compare(tok[0].size() - 3, 3, "OFF") != 0) return;
-  if (tok[0].find('n') != std::string::npos) return;  // nOFF: dimension first; leave it to CGAL
-  long nv, nf;  // (binary OFF is read by meshtext::readBinaryOff)
-  if (tok.size() < 3 || !parseLong(tok[1], nv) || !parseLong(tok[2], nf)) return;
-  if (nv < 0 || nf < 0) throw InputError(path, "OFF header has a negative vertex or face count");
-  const double bytes = double(fs::file_size(path));
-  const double need = 6.0 * nv + 8.0 * nf;
-  if (need > bytes)
-    throw InputError(path, "OFF header declares " + std::to_string(nv) + " vertices and " +
-                               std::to_string(nf) + " faces, more than a " +
-                               std::to_string(long(bytes)) + "-byte file can hold (truncated file?)");
-}
-
 // Guards CGAL's PLY reader, which adds each 'property' line to the last element declared before
 // it: a property before any 'element' line (a damaged header) crashed it (found by
 // scripts/fuzz-meshes, seed 13). The header is text even in a binary file; it is read up to
@@ -340,11 +316,10 @@ RawMesh readWithCgal(const std::string& path, const std::string& ext) {
   if (ext == ".off") {
     const meshtext::BinaryOff bin = meshtext::readBinaryOff(path);
     if (bin.binary) return binaryOffToRaw(path, bin);
-    checkOffHeader(path);
   }
   if (ext == ".ply") checkPlyHeader(path);
   // A face or list longer than the file can hold: CGAL would allocate it first (mesh_text.h).
-  if (std::optional<meshtext::FileProblem> p = ext == ".off"   ? meshtext::oversizedOffFace(path)
+  if (std::optional<meshtext::FileProblem> p = ext == ".off"   ? meshtext::oversizedOff(path)
                                                : ext == ".ply" ? meshtext::oversizedPlyList(path)
                                                                : std::nullopt)
     throw InputError(path, p->line, p->column, p->what);

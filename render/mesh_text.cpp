@@ -483,7 +483,7 @@ std::optional<FileProblem> diagnoseGltfJson(const std::string& path) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Lengths that the rest of the file cannot hold (oversizedOffFace, oversizedPlyList)
+// Lengths that the rest of the file cannot hold (oversizedOff, oversizedPlyList)
 
 namespace {
 
@@ -541,18 +541,28 @@ std::string tooLong(const std::string& what, const std::string& of, long long n,
 
 }  // namespace
 
-std::optional<FileProblem> oversizedOffFace(const std::string& path) {
+std::optional<FileProblem> oversizedOff(const std::string& path) {
   const std::string text = readTextFile(path);
   TextCursor c(text, 0, 1, '#');
   const std::string_view kw = c.next();
-  if (kw.size() < 3 || kw.substr(kw.size() - 3) != "OFF" || kw.find_first_of("n4") != std::string_view::npos)
-    return std::nullopt;
+  // nOFF gives the dimension first; binary OFF is readBinaryOff's.
+  if (kw.size() < 3 || kw.substr(kw.size() - 3) != "OFF" || kw.find('n') != std::string_view::npos) return std::nullopt;
   long counts[3];
+  int count_line = 0, count_column = 0;
   for (int k = 0; k < 3; ++k) {
     const std::string_view t = c.next();
+    if (k == 0) count_line = c.line(), count_column = c.column();
     if (k == 0 && t == "BINARY") return std::nullopt;
-    if (!parseLong(t, counts[k]) || counts[k] < 0) return std::nullopt;
+    if (!parseLong(t, counts[k])) return std::nullopt;  // the diagnoser says what it is
+    if (k < 2 && counts[k] < 0)
+      return FileProblem{c.line(), c.column(), std::string("expected the ") + (k == 0 ? "vertex" : "face") +
+                                                   " count (an integer >= 0), found " + quoted(std::string(t))};
+    if (k == 1 && 6.0 * double(counts[0]) + 8.0 * double(counts[1]) > double(text.size()))
+      return FileProblem{count_line, count_column,
+                         "the header declares " + std::to_string(counts[0]) + " vertices and " + std::to_string(counts[1]) +
+                             " faces, more than a " + std::to_string(text.size()) + "-byte file can hold (truncated file?)"};
   }
+  if (kw.find('4') != std::string_view::npos) return std::nullopt;  // 4OFF: the counts only
   // One vertex a line, as CGAL reads them (the rest of a line may hold a colour).
   for (long v = 0; v < counts[0]; ++v) {
     c.nextLine();

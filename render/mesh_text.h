@@ -44,13 +44,14 @@ std::optional<FileProblem> diagnoseOff(const std::string& path);
 std::optional<FileProblem> diagnoseStl(const std::string& path);
 std::optional<FileProblem> diagnosePly(const std::string& path);
 // A face or list whose declared length the rest of the file cannot hold (or a negative one), in an
-// ASCII OFF file (a face's corner count) or a PLY file, ASCII or binary (any list property's
-// length). CGAL's readers size an array from that number before they read its entries, so one
-// bad count in a 5 KB file had them allocate and fill 12 to 17 GB for up to a minute before they
-// failed (scripts/fuzz-meshes seed 104 under AddressSanitizer). A pass over the file, before
-// CGAL reads it; nullopt where every length fits (or where the file is not in a form it reads:
-// CGAL and the diagnosers above report those). Binary OFF is readBinaryOff's.
-std::optional<FileProblem> oversizedOffFace(const std::string& path);
+// ASCII OFF file (a face's corner count; and the header's vertex and face counts, at 6 and 8
+// bytes each at least) or a PLY file, ASCII or binary (any list property's length). CGAL's readers
+// size an array from such a number before they read its entries, so one bad count in a 5 KB file
+// had them allocate and fill 12 to 17 GB for up to a minute before they failed (scripts/fuzz-meshes
+// seed 104 under AddressSanitizer). A pass over the file, before CGAL reads it; nullopt where
+// every length fits (or where the file is not in a form it reads: CGAL and the diagnosers above
+// report those). Binary OFF is readBinaryOff's.
+std::optional<FileProblem> oversizedOff(const std::string& path);
 std::optional<FileProblem> oversizedPlyList(const std::string& path);
 // A binary OFF file: Geomview's "OFF BINARY" (the keyword, the word BINARY, and from the byte
 // after the next newline big-endian 32-bit integers and floats: the vertex, face and edge counts,

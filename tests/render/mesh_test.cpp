@@ -743,7 +743,10 @@ TEST(LoadMesh, MalformedFilesThrowInputErrors) {
   e = loadError(write("short.stl", std::string(80, ' ') + std::string("\x02\0\0\0", 4) + std::string(60, '\0')));
   EXPECT_NE(e.find("short.stl: a binary STL declaring 2 facets is 184 bytes long, the file has 144"), std::string::npos) << e;
   e = loadError(write("huge.off", "OFF\n2000000000 1 0\n0 0 0\n"));
-  EXPECT_NE(e.find("declares 2000000000 vertices"), std::string::npos) << e;
+  EXPECT_NE(e.find("huge.off:2:1: the header declares 2000000000 vertices and 1 faces, more than a 25-byte file can hold"),
+            std::string::npos) << e;
+  e = loadError(write("negative_count.off", "OFF\n3 -1 0\n0 0 0\n1 0 0\n0 1 0\n"));
+  EXPECT_NE(e.find("negative_count.off:2:3: expected the face count (an integer >= 0), found '-1'"), std::string::npos) << e;
   e = loadError(write("inf.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 inf 0\n3 0 1 2\n"));
   EXPECT_NE(e.find("inf.off:5:3"), std::string::npos) << e;  // line 5, column 3
   EXPECT_NE(e.find("non-finite"), std::string::npos) << e;

@@ -141,7 +141,7 @@ Field buildSchema() {
       tess};
   part.variant_docs["fender"] = "Front fender: side panel curved in plan, with a wheel-arch cut-out.";
   part.variants["mesh"] = {
-      path("path", "Mesh file: OBJ, PLY, STL, OFF or glTF 2.0 (.gltf/.glb), relative to the config.", true),
+      path("path", "Mesh file: OBJ, PLY, STL, OFF (ASCII or binary) or glTF 2.0 (.gltf/.glb), relative to the config.", true),
       num("unit_scale_to_mm", "", 1.0, 0, 1e6, "", false, true)};
   part.variants["mesh"][1].doc =
       "Factor from the file's units to mm. Default 1, except 1000 for glTF (whose unit is the metre).";

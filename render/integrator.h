@@ -91,6 +91,11 @@ struct RenderSettings {
   // (Tracer::cameraHitSplit).
   int camera_hit_bsdf_samples = 32;
   int camera_hit_bsdf_per_pixel = 32;
+  // With groove shading on, whether a constant environment (a dome) takes groove_light_samples
+  // light samples at camera hits and groove footprints, as each area light does. Off: the BSDF
+  // directions, which follow the BSDF, find it alone (Tracer::env_by_bsdf_): the same or less
+  // noise on the accuracy scenes in 13% less time. An environment map always takes them.
+  bool groove_env_light_samples = false;
 };
 
 struct RenderStats {

@@ -582,12 +582,19 @@ std::optional<FileProblem> oversizedOff(const std::string& path) {
 
 BinaryOff readBinaryOff(const std::string& path) {
   BinaryOff r;
+  {
+    // The header from the file's head first: an ASCII file (the usual case) is not read twice.
+    const std::string head = readFileHead(path, 4096);
+    TextCursor h(head, 0, 1, '#');
+    const std::string_view kw = h.next();
+    if (kw.size() < 3 || kw.substr(kw.size() - 3) != "OFF" || h.next() != "BINARY") return r;
+  }
+  r.binary = true;
   const std::string text = readTextFile(path);
   TextCursor c(text, 0, 1, '#');
   const std::string_view kw = c.next();
   const int kw_line = c.line(), kw_column = c.column();
-  if (kw.size() < 3 || kw.substr(kw.size() - 3) != "OFF" || c.next() != "BINARY") return r;
-  r.binary = true;
+  c.next();  // BINARY
   auto fail = [&](int line, int column, const std::string& what) {
     r.problem = FileProblem{line, column, what};
     r.mesh = OffMesh{};

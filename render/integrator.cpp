@@ -501,10 +501,10 @@ class Tracer {
   // emitters the ray hits). `depth0` is the number of surface bounces before this ray.
   // `prev_nl` is the number of light samples the previous vertex took per light (MIS counts; the
   // expected number where they were a random subset), `prev_nl_env` the number it took of the
-  // environment (0 where env_by_bsdf_ left the environment to the BSDF directions). `prev_share` scales the MIS weight of an
-  // emitter hit by this first ray: the share of its strategy's directions that this set of rays
-  // is (a groove footprint's continued BSDF directions share the strategy with its direct-only
-  // lobe directions, shadeLevel).
+  // environment (0 where env_by_bsdf_ left the environment to the BSDF directions). `prev_share`
+  // scales the MIS weight of an emitter hit by this first ray: the share of its strategy's
+  // directions that this set of rays is (a groove footprint's continued BSDF directions share the
+  // strategy with its direct-only lobe directions, shadeLevel).
   Rgb continuePath(DiffRay ray, Rgb beta, float prev_pdf, bool prev_specular, Vec3f prev_p, int depth0, Rng& rng,
                    uint64_t& nrays, float prev_nl, float prev_nl_env, float prev_share = 1.0f,
                    const PixelPattern* pads = nullptr, int pad_s = 0, const DiffRay* plate = nullptr) const {
@@ -622,6 +622,7 @@ class Tracer {
       // into fewer (the pixel's samples share 32), while its light samples stay 16: there the
       // dome's light samples are what brings the plate's noise down with spp.
       const bool env_samples = !(depth == 0 && grooves_ && env_by_bsdf_ && ns >= nl);
+      const float nl_env = env_samples ? float(nl) : 0.0f;  // the MIS count of the environment's samples
       const BsdfAt bsdf(m, wo);
       // The camera hit's light samples and BSDF direction come from the pixel's pattern.
       forEachLightSample(nl, origin, depth == 0 ? pads : nullptr, pad_s, rng,
@@ -696,7 +697,7 @@ class Tracer {
           // Light samples never go through the surface, so a transmitted direction meets its
           // emitter with MIS weight 1 (as a specular one).
           L += continuePath(nextRay(wi_w), b, float(n) * bs.pdf, bs.wi.z < 0, origin, depth + 1, rng, nrays, float(nl),
-                            env_samples ? float(nl) : 0.0f);
+                            nl_env);
         }
         break;
       }
@@ -715,7 +716,7 @@ class Tracer {
       prev_specular = bs.wi.z < 0;  // transmitted: no light sample covers it (see above)
       if (bs.wi.z < 0) eta_scale *= m.ior * m.ior;
       prev_nl = float(nl);
-      prev_nl_env = env_samples ? float(nl) : 0.0f;
+      prev_nl_env = nl_env;
       prev_p = origin;
       ray = nextRay(wi_w);
       // Russian roulette after three bounces; the survival test uses the path's own random stream.
@@ -1495,6 +1496,7 @@ class Tracer {
     const int nsub = level == 0 ? 1 : sub_count_;
     const int off = nsub > 1 ? std::min(nsub - 1, int(rng.uniform() * float(nsub))) : 0;
     const float nl_eff = float(nl) / float(nsub);
+    const float nl_env = env_by_bsdf_ ? 0.0f : nl_eff;  // the environment's (env_by_bsdf_)
     Rgb L(0.0f);
     double wsum = 0;
     for (const auto& p : portions) wsum += p.weight;
@@ -1552,7 +1554,7 @@ class Tracer {
         r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
         // The whole portion refracts this way (its weight, as the escaped share's).
         L += continuePath(r, beta_next * float(p.weight), float(nbm * p.weight / wsum) * dr.pdf, true, r.o, 1 + level,
-                          rng, nrays, nl_eff, env_by_bsdf_ ? 0.0f : nl_eff);
+                          rng, nrays, nl_eff, nl_env);
         continue;
       }
       if (direct_only) {
@@ -1567,7 +1569,7 @@ class Tracer {
         r.d = d;
         r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
         L += continuePath(r, beta_next * float(sc.escaped), float(nbm * p.weight / wsum) * dr.pdf, false, origin,
-                          1 + level, rng, nrays, nl_eff, env_by_bsdf_ ? 0.0f : nl_eff, direct_scale * float(nb) / nbm);
+                          1 + level, rng, nrays, nl_eff, nl_env, direct_scale * float(nb) / nbm);
       }
       // The next level's direct light is shared with the direct-only directions when they were
       // followed there (lobeDirect), deeper levels' is not.

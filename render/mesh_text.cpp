@@ -166,6 +166,27 @@ std::optional<FileProblem> typed(const DataLine& l, const Tok& t, const std::str
   return std::nullopt;
 }
 
+// The prefixes of an OFF keyword ending in "OFF": [ST][C][N] in any order (normals, vertex
+// colours, texture coordinates); nullopt for any other letter (4OFF, nOFF, or not a keyword).
+struct OffPrefixes {
+  bool normals = false, colours = false, texcoords = false;
+};
+std::optional<OffPrefixes> offPrefixes(std::string_view kw) {
+  OffPrefixes f;
+  for (size_t i = 0; i + 3 < kw.size();) {
+    if (kw.substr(i, 2) == "ST") {
+      f.texcoords = true;
+      i += 2;
+    } else if (kw[i] == 'C' || kw[i] == 'N') {
+      (kw[i] == 'C' ? f.colours : f.normals) = true;
+      ++i;
+    } else {
+      return std::nullopt;
+    }
+  }
+  return f;
+}
+
 }  // namespace
 
 std::optional<FileProblem> findNonFinite(const std::string& path) {
@@ -184,18 +205,9 @@ std::optional<FileProblem> diagnoseOff(const std::string& path) {
   const std::string& kw = head.tok[0].text;
   if (kw.size() < 3 || kw.compare(kw.size() - 3, 3, "OFF") != 0)
     return at(head, head.tok[0], "expected the header keyword OFF (or COFF, NOFF, STOFF, ...), found " + quoted(kw));
-  bool normals = false, colours = false, texcoords = false;
-  for (size_t i = 0; i + 3 < kw.size();) {
-    if (kw.compare(i, 2, "ST") == 0) {
-      texcoords = true;
-      i += 2;
-    } else if (kw[i] == 'C' || kw[i] == 'N') {
-      (kw[i] == 'C' ? colours : normals) = true;
-      ++i;
-    } else {
-      return std::nullopt;  // 4OFF, nOFF: not looked into
-    }
-  }
+  const std::optional<OffPrefixes> prefixes = offPrefixes(kw);
+  if (!prefixes) return std::nullopt;  // 4OFF, nOFF: not looked into
+  const auto [normals, colours, texcoords] = *prefixes;
   // The counts follow the keyword, on its line or the next.
   size_t li = 0, ti = 1;
   if (head.tok.size() == 1) li = 1, ti = 0;
@@ -600,19 +612,11 @@ BinaryOff readBinaryOff(const std::string& path) {
     r.mesh = OffMesh{};
     return r;
   };
-  bool normals = false, texcoords = false;
-  for (size_t i = 0; i + 3 < kw.size();) {
-    if (kw.substr(i, 2) == "ST") {
-      texcoords = true;
-      i += 2;
-    } else if (kw[i] == 'N') {
-      normals = true;
-      ++i;
-    } else {
-      return fail(kw_line, kw_column, "binary " + quoted(std::string(kw)) + " is not read (binary OFF, NOFF, STOFF and STNOFF "
-                                      "are; vertex colours, 4OFF and nOFF only in ASCII)");
-    }
-  }
+  const std::optional<OffPrefixes> prefixes = offPrefixes(kw);
+  if (!prefixes || prefixes->colours)
+    return fail(kw_line, kw_column, "binary " + quoted(std::string(kw)) + " is not read (binary OFF, NOFF, STOFF and STNOFF "
+                                    "are; vertex colours, 4OFF and nOFF only in ASCII)");
+  const bool normals = prefixes->normals, texcoords = prefixes->texcoords;
   const size_t eol = text.find('\n', c.offset());
   if (eol == std::string::npos) return fail(c.line(), c.column(), "expected a newline after BINARY, then the binary data");
   const auto* b = reinterpret_cast<const unsigned char*>(text.data());

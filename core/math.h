@@ -8,6 +8,7 @@ namespace dg {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr float kPiF = 3.14159265358979323846f;
+constexpr float kOneMinusEps = 0x1.fffffep-1f;  // the largest float below 1
 constexpr float kInvPiF = 0.31830988618379067154f;
 
 template <class T>

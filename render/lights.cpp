@@ -1,5 +1,6 @@
 #include "render/lights.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace dg {
@@ -41,6 +42,66 @@ float AreaLight::pdfSolidAngle(Vec3f p, Vec3f q) const {
   float cosl = -dot(w, normal) / std::sqrt(d2);
   if (cosl <= 0) return 0.0f;
   return d2 / (cosl * area());
+}
+
+Vec2f AreaLight::domainPoint(Vec3f q) const {
+  const Vec3f d = q - center;
+  const float a = dot(d, axis_u), b = dot(d, axis_v);
+  if (shape == Shape::Rect)
+    return Vec2f(std::clamp(0.5f * (a / half_u + 1), 0.0f, kOneMinusEps),
+                 std::clamp(0.5f * (b / half_v + 1), 0.0f, kOneMinusEps));
+  const float span = radius * radius - inner_radius * inner_radius;
+  const float x = span > 0 ? (a * a + b * b - inner_radius * inner_radius) / span : 0.5f;
+  float y = std::atan2(b, a) / (2 * kPiF);
+  if (y < 0) y += 1;
+  return Vec2f(std::clamp(x, 0.0f, kOneMinusEps), std::clamp(y, 0.0f, kOneMinusEps));
+}
+
+namespace {
+
+// Normalises n weights into probabilities mixed with the uniform (share `floor`) and their
+// running sums; false when they sum to 0 or are not finite.
+bool binsFrom(const float* w, int n, float floor, float* p, float* c) {
+  double sum = 0;
+  for (int i = 0; i < n; ++i) sum += w[i];
+  if (!(sum > 0) || !std::isfinite(sum)) return false;
+  c[0] = 0;
+  for (int i = 0; i < n; ++i) {
+    p[i] = float((1 - floor) * w[i] / sum + floor / n);
+    c[i + 1] = c[i] + p[i];
+  }
+  return true;
+}
+
+// The bin of t in [0, 1) under running sums c (n bins), and t's place in the domain.
+float warpOne(float t, const float* p, const float* c, int n, float& rel) {
+  int j = 0;
+  while (j + 1 < n && t >= c[j + 1]) ++j;
+  rel *= float(n) * p[j];
+  const float f = std::clamp((t - c[j]) / p[j], 0.0f, kOneMinusEps);
+  return std::min((float(j) + f) / float(n), kOneMinusEps);
+}
+
+}  // namespace
+
+void LightGuide::build(const float* w_major, const float* w_minor, float floor) {
+  on = binsFrom(w_major, kMajor, floor, p_major, c_major) && binsFrom(w_minor, kMinor, floor, p_minor, c_minor);
+}
+
+Vec2f LightGuide::warp(Vec2f u, float& rel) const {
+  rel = 1.0f;
+  if (!on) return u;
+  float a = major == 0 ? u.x : u.y, b = major == 0 ? u.y : u.x;
+  a = warpOne(a, p_major, c_major, kMajor, rel);
+  b = warpOne(b, p_minor, c_minor, kMinor, rel);
+  return major == 0 ? Vec2f(a, b) : Vec2f(b, a);
+}
+
+float LightGuide::relDensity(Vec2f u) const {
+  if (!on) return 1.0f;
+  const float a = major == 0 ? u.x : u.y, b = major == 0 ? u.y : u.x;
+  const int i = std::min(int(a * kMajor), kMajor - 1), j = std::min(int(b * kMinor), kMinor - 1);
+  return float(kMajor) * p_major[i] * float(kMinor) * p_minor[j];
 }
 
 }  // namespace dg

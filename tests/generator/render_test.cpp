@@ -607,6 +607,46 @@ TEST(Render, GrooveShadingLeavesAConstantDomeToTheBsdfDirections) {
   }
 }
 
+// At 1 spp groove shading guides the light samples of its camera hits and of footprints
+// that see only the flat surface (LightGuide, RenderSettings::guide_light_samples): drawn more
+// densely where the BSDF makes more of the light, with the MIS weights of the BSDF directions
+// that meet the light counting the guided density. That must keep the image's expectation, on
+// the scratches and off them, and lower the plate's noise under the ring light round the lens,
+// which a glossy plate sees through its lobe's tail, brightest on the side nearest the mirror
+// direction. The accuracy test's aluminium with parallel scratches, seen 10 degrees wide so that
+// the view's edges look at the ring off-centre; and under the dark-field bar, which the plate
+// sees too far in its lobe's tail to be guided (the same noise; more would be wasted work).
+// Measured: totals within 0.02% of each other; off the scratches under the ring a variance of
+// 0.04 of the uniform samples' (1.83e-5 against 4.56e-4). With the MIS weights counting the
+// uniform density instead at the camera hits, the plate's total came out 5.5% high. (At the flat
+// footprints the same mistake moves the totals by 0.02-0.04%, here and seen from 60 mm at 5
+// degrees: their BSDF directions seldom reach the ring, far in the lobe's tail.)
+TEST(Render, GrooveShadingGuidesItsLightSamples) {
+  for (const auto& [name, light, fov, res] :
+       {std::tuple<std::string, std::string, std::string, int>{"ring", kRingLight, "10", 48},
+        {"bar", kBarLight, "10", 48}}) {
+    SCOPED_TRACE(name);
+    Dataset ds = parallelScratches(fov, light, res);
+    const std::vector<size_t> on = scratchedPixels(ds);
+    ASSERT_GT(on.size(), 30u);
+    std::vector<size_t> off;
+    for (size_t i = 0, j = 0; i < size_t(res * res); ++i) {
+      while (j < on.size() && on[j] < i) ++j;
+      if (j == on.size() || on[j] != i) off.push_back(i);
+    }
+    for (const std::vector<size_t>* px : {&on, static_cast<const std::vector<size_t>*>(&off)}) {
+      double tu = 0, tg = 0;
+      const double vu = pixelStats(ds, *px, 12, 7000, [](RenderSettings& st) { st.guide_light_samples = false; }, tu);
+      const double vg = pixelStats(ds, *px, 12, 7000, [](RenderSettings& st) { st.guide_light_samples = true; }, tg);
+      std::printf("[          ] %s, %s the scratches: total guided / uniform %.4f; variance %.3g / %.3g\n",
+                  name.c_str(), px == &on ? "on" : "off", tg / tu, vg, vu);
+      EXPECT_NEAR(tg / tu, 1.0, 0.01);
+      if (name != "bar" && px == &off) EXPECT_LT(vg, 0.5 * vu);
+      else EXPECT_LT(vg, 1.1 * vu);
+    }
+  }
+}
+
 TEST(Render, GrooveShadingAntialiasesThePlate) {
   // 2 px per mm from 500 mm; the 20 mm wide plate's edges at cx -/+ 20 px.
   auto edge = [](const std::string& mode) {

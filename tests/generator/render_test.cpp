@@ -355,6 +355,16 @@ std::vector<size_t> scratchedPixels(const Dataset& ds) {
   return px;
 }
 
+// The pixels below n that are not in `px` (sorted).
+std::vector<size_t> otherPixels(const std::vector<size_t>& px, size_t n) {
+  std::vector<size_t> other;
+  for (size_t i = 0, j = 0; i < n; ++i) {
+    while (j < px.size() && px[j] < i) ++j;
+    if (j == px.size() || px[j] != i) other.push_back(i);
+  }
+  return other;
+}
+
 // The RGB of `runs` renders of the dataset's first sample with the noise seeds seed0, seed0 + 1,
 // ..., after `tweak(settings)` has set what a test varies.
 template <class Tweak>
@@ -585,11 +595,7 @@ TEST(Render, GrooveShadingLeavesAConstantDomeToTheBsdfDirections) {
     }
     const std::vector<size_t> on = scratchedPixels(ds);
     ASSERT_GT(on.size(), 50u);
-    std::vector<size_t> off;
-    for (size_t i = 0, j = 0; i < 48 * 48; ++i) {
-      while (j < on.size() && on[j] < i) ++j;
-      if (j == on.size() || on[j] != i) off.push_back(i);
-    }
+    const std::vector<size_t> off = otherPixels(on, 48 * 48);
     for (const std::vector<size_t>* px : {&on, static_cast<const std::vector<size_t>*>(&off)}) {
       double tl = 0, tb = 0;
       const double vl = pixelStats(ds, *px, 12, 6000, [](RenderSettings& st) { st.groove_env_light_samples = true; }, tl);
@@ -629,11 +635,7 @@ TEST(Render, GrooveShadingGuidesItsLightSamples) {
     Dataset ds = parallelScratches(fov, light, res);
     const std::vector<size_t> on = scratchedPixels(ds);
     ASSERT_GT(on.size(), 30u);
-    std::vector<size_t> off;
-    for (size_t i = 0, j = 0; i < size_t(res * res); ++i) {
-      while (j < on.size() && on[j] < i) ++j;
-      if (j == on.size() || on[j] != i) off.push_back(i);
-    }
+    const std::vector<size_t> off = otherPixels(on, size_t(res * res));
     for (const std::vector<size_t>* px : {&on, static_cast<const std::vector<size_t>*>(&off)}) {
       double tu = 0, tg = 0;
       const double vu = pixelStats(ds, *px, 12, 7000, [](RenderSettings& st) { st.guide_light_samples = false; }, tu);

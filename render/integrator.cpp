@@ -407,15 +407,15 @@ class Tracer {
   };
 
   // Guides for the light samples of a shading point at `origin` (geometric normal ng, BSDF `bsdf`
-  // in frame fr): each area light's bins weighted by what the point gets from the bin's centre per
-  // unit area, f cos(theta_i) cos(theta_l) / d^2 (the largest channel), along the major axis at
-  // the middle of the minor one, then along the minor at the brightest major bin; a quarter of
-  // each axis's density stays uniform (kGuideFloor). Shadows are not looked at: the light samples
-  // test them. A light is guided only where it matters: a first pass of 4 points along its major
-  // axis (and 2 across it) estimates what the point gets from it unshadowed, and a light that
-  // gives less than kGuideShare of what all of them and the environment (its radiance toward the
-  // normal) give, or whose points differ by less than kGuidePeak, is left uniform. Under a dark-field bar the plate sees the bar only far in its lobe's tail; the
-  // 48 evaluations of the BSDF would buy nothing there.
+  // in frame fr): each area light's bins weighted by what a uniform light sample at the bin's
+  // centre would carry (guideWeight), along the major axis at the middle of the minor one, then
+  // along the minor at the brightest major bin; a quarter of each axis's density stays uniform
+  // (kGuideFloor). Shadows are not looked at: the light samples test them. A light is guided only
+  // where it matters: a first pass of 4 points along its major axis (and 2 across it) estimates
+  // what the point gets from it unshadowed, and a light that gives less than kGuideShare of what
+  // all of them and the environment (its radiance toward the normal) give, or whose points differ
+  // by less than kGuidePeak, is left uniform. Under a dark-field bar the plate sees the bar only
+  // far in its lobe's tail, and the 48 evaluations of the BSDF would buy nothing there.
   // Returns whether any light is guided.
   bool buildGuides(Vec3f origin, Vec3f ng, const Frame& fr, const BsdfAt& bsdf, LightGuides& guides) const {
     const int nal = std::min(int(s_.lights.area.size()), kMaxGuided);
@@ -440,7 +440,7 @@ class Tracer {
         hi = std::max(hi, w);
         lo = std::min(lo, w);
       }
-      given[li] = sum / kGuideProbes * al.area() * luminance(al.radiance);
+      given[li] = sum / kGuideProbes * luminance(al.radiance);
       peaked[li] = hi > kGuidePeak * lo;
       total += given[li];
     }
@@ -463,20 +463,19 @@ class Tracer {
     }
     return any;
   }
-  // What a shading point gets per unit area of light al from its domain point (a along the major
-  // axis, b along the other), unshadowed: f cos(theta_i) cos(theta_l) / d^2, the largest channel.
+  // What a uniform light sample at domain point (a along the major axis, b along the other) of
+  // light al would carry to the shading point, unshadowed and per unit radiance: f cos(theta_i) /
+  // pdf (sampleAreaLight), the largest channel; 0 behind the light or below the surface.
   static float guideWeight(const AreaLight& al, int major, float a, float b, Vec3f origin, Vec3f ng, const Frame& fr,
                            const BsdfAt& bsdf) {
-    const Vec3f q = al.samplePoint(major == 0 ? Vec2f(a, b) : Vec2f(b, a));
-    Vec3f wl = q - origin;
-    const float d2 = dot(wl, wl);
-    if (!(d2 > 0)) return 0.0f;
-    wl = wl / std::sqrt(d2);
-    const float cosl = -dot(wl, al.normal);
-    if (cosl <= 0 || dot(wl, ng) <= 0) return 0.0f;
+    Vec3f wl;
+    float dist, pl;
+    if (!sampleAreaLight(al, major == 0 ? Vec2f(a, b) : Vec2f(b, a), origin, wl, dist, pl) || !(pl > 0) ||
+        dot(wl, ng) <= 0)
+      return 0.0f;
     const Vec3f wi = fr.toLocal(wl);
     if (wi.z <= 0) return 0.0f;
-    return maxComponent(bsdf.eval(wi)) * wi.z * cosl / d2;
+    return maxComponent(bsdf.eval(wi)) * wi.z / pl;
   }
 
   // Sample k of the nl a camera hit takes on light li (area lights, then the environment), in the

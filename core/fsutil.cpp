@@ -115,4 +115,11 @@ std::string oneLineError(const std::string& text) {
   return out;
 }
 
+void refuseDamagedJpeg(const std::string& path, const std::string& format, const std::string& reader_error,
+                       const std::string& what, const std::string& advice) {
+  if (format != "jpeg") return;
+  const std::string warning = oneLineError(reader_error);
+  if (!warning.empty()) throw InputError(path, what + " is damaged (" + warning + "); " + advice);
+}
+
 }  // namespace dg

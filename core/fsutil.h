@@ -45,4 +45,11 @@ class QuietStderr {
 // A library's error text as part of one line: line breaks become "; ", the ends trimmed.
 std::string oneLineError(const std::string& text);
 
+// After a read that succeeded: libjpeg decodes a damaged JPEG (a file cut short, say) and only
+// warns, its missing part filled grey, and an image reader keeps that warning as its error text.
+// With `format` "jpeg" and a non-empty `reader_error`, throws an InputError for `path`:
+// "<what> is damaged (<warning>); <advice>".
+void refuseDamagedJpeg(const std::string& path, const std::string& format, const std::string& reader_error,
+                       const std::string& what, const std::string& advice);
+
 }  // namespace dg

@@ -79,14 +79,8 @@ RawImage readRaw(const std::string& path, bool asFloat) {
     std::string err = oneLineError(in->geterror());
     throw InputError(path, "cannot decode image" + (err.empty() ? std::string() : ": " + err));
   }
-  // libjpeg decodes a damaged JPEG "successfully" and only warns: a file cut short comes out with
-  // its lower part grey, and the comparison would be of that. OpenImageIO keeps the warning as its
-  // error text.
-  if (r.format == "jpeg") {
-    const std::string warning = oneLineError(in->geterror());
-    if (!warning.empty())
-      throw InputError(path, "the JPEG is damaged (" + warning + "); export it again from its source");
-  }
+  // Else the comparison would be of a grey lower part.
+  refuseDamagedJpeg(path, r.format, in->geterror(), "the JPEG", "export it again from its source");
   in->close();
   return r;
 }

@@ -104,13 +104,7 @@ EnvironmentMap EnvironmentMap::load(const std::string& path, float scale, float 
     throw InputError(path, "cannot read the pixels of the environment map" +
                                (why.empty() ? std::string() : ": " + why));
   }
-  // A damaged JPEG decodes with only a warning, its missing part filled grey (labels/compare.cpp
-  // refuses it alike).
-  if (std::string(in->format_name()) == "jpeg") {
-    const std::string warning = oneLineError(in->geterror());
-    if (!warning.empty())
-      throw InputError(path, "the environment map's JPEG is damaged (" + warning + "); export it again");
-  }
+  refuseDamagedJpeg(path, in->format_name(), in->geterror(), "the environment map's JPEG", "export it again");
   in->close();
   quiet.reset();
 

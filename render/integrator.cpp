@@ -24,9 +24,13 @@ constexpr float kGuideShare = 0.05f;
 constexpr int kGuideProbes = 4;
 // ... and where what it gives varies across the light by more than this factor (over those points
 // and two more across the light's other axis): a uniform sample of a smooth integrand does about
-// as well. On car paint under the ring (its diffuse base coat sees the whole ring alike) the
-// guides cost 10% more time for the same error.
-constexpr float kGuidePeak = 2.0f;
+// as well. On car paint under the ring (its diffuse base coat sees the whole ring alike) guides
+// for every light cost 10% more time for the same error. At 2, the bench's door at 1 spp (paint
+// under the long bar, whose near and far ends differ by about that factor in distance and angle)
+// was still guided at 7% more time for the same error; at 4 it is not, and the ring scenes'
+// errors stay the same (their aluminium's lobe tail differs 25-fold across the ring); at 8 they
+// rise by 6-17% (docs/grooves.md, "Cost per sample").
+constexpr float kGuidePeak = 4.0f;
 // Light samples are guided only while a pixel takes at most this many per light (16 per camera
 // sample: at 1 spp). From 2 spp on the pixel's 32 or more lattice points per light resolve most
 // of a ring light's glossy reflection themselves: on parallel/ring the mean dE went 0.137 ->

@@ -26,10 +26,10 @@ constexpr int kGuideProbes = 4;
 // and two more across the light's other axis): a uniform sample of a smooth integrand does about
 // as well. On car paint under the ring (its diffuse base coat sees the whole ring alike) guides
 // for every light cost 10% more time for the same error. At 2, the bench's door at 1 spp (paint
-// under the long bar, whose near and far ends differ by about that factor in distance and angle)
-// was still guided at 7% more time for the same error; at 4 it is not, and the ring scenes'
-// errors stay the same (their aluminium's lobe tail differs 25-fold across the ring); at 8 they
-// rise by 6-17% (docs/grooves.md, "Cost per sample").
+// under the long bar, whose near and far ends lie at other distances and angles: its probes
+// differ by 2 to 4 times at some hits) was still guided at 7% more time for the same error; at 4
+// it is not, and the ring scenes' errors stay the same (their aluminium's lobe tail differs
+// 25-fold across the ring); at 8 they rise by 6-17% (docs/grooves.md, "Cost per sample").
 constexpr float kGuidePeak = 4.0f;
 // Light samples are guided only while a pixel takes at most this many per light (16 per camera
 // sample: at 1 spp). From 2 spp on the pixel's 32 or more lattice points per light resolve most

@@ -652,8 +652,9 @@ TEST(Render, GrooveShadingGuidesItsLightSamples) {
 // Where a light's probes differ by less than kGuidePeak (4) nothing is guided: a uniform sample
 // of a smooth integrand does as well, and guides cost time. The bench's door (tests/accuracy/
 // groove_scenes.DOOR: car paint under the long dark-field bar, whose clear coat never mirrors it)
-// sees the bar through its diffuse base, its near and far ends differing by about a factor of 2 in
-// distance and angle; at 1 spp its image with the guides allowed is the one without, bit for bit.
+// sees the bar through its diffuse base; the bar's near and far ends lie at other distances and
+// angles, and its probes differ by 2 to 4 times at some hits. At 1 spp its image with the guides
+// allowed is the one without, bit for bit.
 // (With kGuidePeak at 2 it was guided, at 7% more time for the same error.)
 TEST(Render, GrooveShadingLeavesAnEvenlySeenLightUniform) {
   const Dataset ds = prepareDataset(parseConfig(

@@ -74,7 +74,7 @@ Vec2f LightPattern::at(int k, bool periodic_y) const {
 
 void PixelPattern::reset(int spp, int g, int dims, Rng& rng) {
   n_ = std::max(1, spp);
-  nl_ = 0;
+  sets_[0].nl = sets_[1].nl = 0;
   nd_ = 0;
   dims_.clear();
   for (int d = 0; d < dims; ++d) {
@@ -94,9 +94,10 @@ Vec2f PixelPattern::at(int d, int s, bool periodic_y) const {
 }
 
 void PixelPattern::resetLights(int lights, int nl, int g, Rng& rng) {
-  nl_ = nl;
-  lights_.clear();
-  for (int i = 0; i < lights; ++i) lights_.emplace_back(nl * n_, g, rng);
+  LightSet& set = sets_[sets_[0].nl == 0 || sets_[0].nl == nl ? 0 : 1];
+  set.nl = nl;
+  set.lights.clear();
+  for (int i = 0; i < lights; ++i) set.lights.emplace_back(nl * n_, g, rng);
 }
 
 void PixelPattern::resetDirections(int nd, int g, Rng& rng) {

@@ -57,14 +57,18 @@ class PixelPattern {
   // spp points (generator g = latticeGenerator(spp)) in `dims` dimensions; draws from rng.
   void reset(int spp, int g, int dims, Rng& rng);
   Vec2f at(int d, int s, bool periodic_y) const;
-  // Where every camera sample takes nl samples per light (groove shading's camera hits): one
-  // lattice of nl * spp points per light for the pixel, generator g = latticeGenerator(nl * spp,
-  // nl, latticeGenerator(nl)); camera sample s takes its points k spp + s, k < nl, themselves an
-  // nl-point lattice of the usual generator. Call after reset().
+  // Where every camera sample takes nl samples per light (groove shading's camera hits and
+  // footprints): one lattice of nl * spp points per light for the pixel, generator g =
+  // latticeGenerator(nl * spp, nl, latticeGenerator(nl)); camera sample s takes its points
+  // k spp + s, k < nl, themselves an nl-point lattice of the usual generator. Call after reset(),
+  // once per count: a pixel holds the lattices of at most two counts (a footprint's and, where it
+  // takes fewer, a camera hit's; Tracer::cameraHitLights).
   void resetLights(int lights, int nl, int g, Rng& rng);
-  int lightSamples() const { return nl_; }  // nl, or 0 without resetLights
-  Vec2f light(int li, int k, int s, bool periodic_y) const {
-    return lights_[size_t(li)].at(k * n_ + s, periodic_y);
+  // Whether the pixel has lattices of nl points per camera sample.
+  bool hasLights(int nl) const { return nl > 0 && (sets_[0].nl == nl || sets_[1].nl == nl); }
+  Vec2f light(int nl, int li, int k, int s, bool periodic_y) const {
+    const LightSet& set = sets_[0].nl == nl ? sets_[0] : sets_[1];
+    return set.lights[size_t(li)].at(k * n_ + s, periodic_y);
   }
   // Where every camera sample splits into nd BSDF directions (groove shading's camera hits off
   // the grooves), the same for their 2-D direction samples: one lattice of nd * spp points,
@@ -81,9 +85,13 @@ class PixelPattern {
     LightPattern pat;
     int a, b;
   };
-  int n_ = 1, nl_ = 0, nd_ = 0;
+  struct LightSet {
+    int nl = 0;  // light samples per camera sample; 0: unused
+    std::vector<LightPattern> lights;
+  };
+  int n_ = 1, nd_ = 0;
   std::vector<Dim> dims_;
-  std::vector<LightPattern> lights_;
+  LightSet sets_[2];
   std::vector<LightPattern> dirs_;  // one pattern after resetDirections
 };
 

@@ -216,5 +216,46 @@ TEST(PixelPattern, UniformEvenAndDecorrelated) {
   EXPECT_LT(corr, 0.2);
 }
 
+// A pixel holds the light lattices of two counts (groove footprints' 16 per camera sample, camera
+// hits' fewer): each count reads its own, the first is what it is without the second, and the
+// second's points over the pixel's samples fill its whole lattice, one in every row and column
+// of its grid (the Latin property of a lattice whose generator is prime to its size).
+TEST(PixelPattern, HoldsTheLightLatticesOfTwoCounts) {
+  const int spp = 16, lights = 2;
+  const int g16 = latticeGenerator(16 * spp, 16, latticeGenerator(16));
+  const int g4 = latticeGenerator(4 * spp, 4, latticeGenerator(4));
+  PixelPattern one, two;
+  Rng r1(9), r2(9);
+  one.reset(spp, latticeGenerator(spp), 3, r1);
+  one.resetLights(lights, 16, g16, r1);
+  two.reset(spp, latticeGenerator(spp), 3, r2);
+  two.resetLights(lights, 16, g16, r2);
+  two.resetLights(lights, 4, g4, r2);
+  EXPECT_TRUE(two.hasLights(16));
+  EXPECT_TRUE(two.hasLights(4));
+  EXPECT_FALSE(two.hasLights(8));
+  EXPECT_FALSE(one.hasLights(4));
+  for (int li = 0; li < lights; ++li)
+    for (int s = 0; s < spp; ++s)
+      for (int k = 0; k < 16; ++k) {
+        EXPECT_EQ(one.light(16, li, k, s, true).x, two.light(16, li, k, s, true).x);
+        EXPECT_EQ(one.light(16, li, k, s, true).y, two.light(16, li, k, s, true).y);
+      }
+  const int n = 4 * spp;
+  for (int li = 0; li < lights; ++li) {
+    std::vector<int> rows(size_t(n), 0), cols(size_t(n), 0);
+    for (int s = 0; s < spp; ++s)
+      for (int k = 0; k < 4; ++k) {
+        // Both coordinates periodic here would be the lattice itself; x is tent-folded, which
+        // maps the n columns two to one, so count x in n / 2 bins and y (periodic) in n.
+        const Vec2f u = two.light(4, li, k, s, true);
+        ++cols[size_t(u.x * float(n / 2))];
+        ++rows[size_t(u.y * float(n))];
+      }
+    for (int i = 0; i < n / 2; ++i) EXPECT_EQ(cols[size_t(i)], 2) << "light " << li << ", column " << i;
+    for (int i = 0; i < n; ++i) EXPECT_EQ(rows[size_t(i)], 1) << "light " << li << ", row " << i;
+  }
+}
+
 }  // namespace
 }  // namespace dg

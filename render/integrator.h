@@ -101,6 +101,11 @@ struct RenderSettings {
   // 1.36%) and 0.67 -> 0.47 s (0.118% -> 0.122%). A budget of 64 was cheaper still on the paint
   // (2.5 s at 16 spp) but left the ring-lit plate noisier for its time (0.206% in 0.30 s).
   int camera_hit_light_per_pixel = 128;
+  // Whether a camera hit's lobe choice (on car paint: the clear coat or the base) takes Latin
+  // strata over the pixel's samples and their split directions (PixelPattern::lobe, lobeAt), where
+  // the pixel has a pattern (spp > 1); false: over each camera sample's own directions, as before
+  // 2026-11-28.
+  bool pixel_lobe_strata = true;
   // With groove shading on, whether a constant environment (a dome) takes groove_light_samples
   // light samples at camera hits and groove footprints, as each area light does. Off: the BSDF
   // directions, which follow the BSDF, find it alone (Tracer::env_by_bsdf_): the same or less

@@ -86,6 +86,9 @@ void PixelPattern::reset(int spp, int g, int dims, Rng& rng) {
     const int b = int(rng.next32() % uint32_t(n_));
     dims_.push_back({pat, a, b});
   }
+  lobe1_.resize(size_t(n_));
+  for (int i = 0; i < n_; ++i) lobe1_[size_t(i)] = i;
+  for (int i = n_ - 1; i > 0; --i) std::swap(lobe1_[size_t(i)], lobe1_[rng.next32() % uint32_t(i + 1)]);
 }
 
 Vec2f PixelPattern::at(int d, int s, bool periodic_y) const {
@@ -104,6 +107,9 @@ void PixelPattern::resetDirections(int nd, int g, Rng& rng) {
   nd_ = nd;
   dirs_.clear();
   dirs_.emplace_back(nd * n_, g, rng);
+  lobes_.resize(size_t(nd * n_));
+  for (size_t i = 0; i < lobes_.size(); ++i) lobes_[i] = int(i);
+  for (size_t i = lobes_.size() - 1; i > 0; --i) std::swap(lobes_[i], lobes_[rng.next32() % (i + 1)]);
 }
 
 }  // namespace dg

@@ -14,6 +14,7 @@
 // quadrature rules"; Dick, Nuyens & Pillichshammer 2014). Where a shadow edge crosses the light
 // the integrand is not smooth, and the lattice does about as well as the grid.
 #pragma once
+#include <algorithm>
 #include <vector>
 
 #include "core/math.h"
@@ -57,6 +58,11 @@ class PixelPattern {
   // spp points (generator g = latticeGenerator(spp)) in `dims` dimensions; draws from rng.
   void reset(int spp, int g, int dims, Rng& rng);
   Vec2f at(int d, int s, bool periodic_y) const;
+  // A number in [0, 1) for camera sample s's lobe choice: the pixel's spp samples take Latin
+  // strata (a random permutation), `jitter` placing sample s in its stratum.
+  float lobeAt(int s, float jitter) const {
+    return std::min((float(lobe1_[size_t(s)]) + jitter) / float(n_), kOneMinusEps);
+  }
   // Where every camera sample takes nl samples per light (groove shading's camera hits and
   // footprints): one lattice of nl * spp points per light for the pixel, generator g =
   // latticeGenerator(nl * spp, nl, latticeGenerator(nl)); camera sample s takes its points
@@ -79,6 +85,11 @@ class PixelPattern {
   void resetDirections(int nd, int g, Rng& rng);
   int directionCount() const { return nd_; }  // nd, or 0 without resetDirections
   Vec2f direction(int j, int s) const { return dirs_.front().at(j * n_ + s, false); }
+  // And their lobe choice: the nd * spp directions' numbers in [0, 1) are Latin strata over the
+  // pixel (a random permutation), `jitter` placing direction j of camera sample s in its stratum.
+  float lobe(int j, int s, float jitter) const {
+    return std::min((float(lobes_[size_t(j * n_ + s)]) + jitter) / float(lobes_.size()), kOneMinusEps);
+  }
 
  private:
   struct Dim {
@@ -93,6 +104,8 @@ class PixelPattern {
   std::vector<Dim> dims_;
   LightSet sets_[2];
   std::vector<LightPattern> dirs_;  // one pattern after resetDirections
+  std::vector<int> lobes_;          // the lobe strata of the pixel's directions
+  std::vector<int> lobe1_;          // the lobe strata of the pixel's samples
 };
 
 }  // namespace dg

@@ -216,6 +216,35 @@ TEST(PixelPattern, UniformEvenAndDecorrelated) {
   EXPECT_LT(corr, 0.2);
 }
 
+// The lobe choices of a pixel's camera samples (lobeAt) and of their split directions (lobe): one
+// number in each of the pixel's strata, whatever the jitter, and the strata in a random order.
+TEST(PixelPattern, LobeChoicesAreLatinStrataOverThePixel) {
+  const int spp = 16, nd = 4;
+  Rng rng(3);
+  PixelPattern pp;
+  pp.reset(spp, latticeGenerator(spp), 3, rng);
+  pp.resetDirections(nd, latticeGenerator(nd * spp, nd, latticeGenerator(nd)), rng);
+  std::vector<int> one(spp, 0), split(nd * spp, 0);
+  int in_order = 0;
+  for (int s = 0; s < spp; ++s) {
+    const float u = pp.lobeAt(s, rng.uniform());
+    ASSERT_GE(u, 0.0f);
+    ASSERT_LT(u, 1.0f);
+    ++one[size_t(u * spp)];
+    in_order += int(u * spp) == s;
+    for (int j = 0; j < nd; ++j) {
+      const float v = pp.lobe(j, s, rng.uniform());
+      ASSERT_GE(v, 0.0f);
+      ASSERT_LT(v, 1.0f);
+      ++split[size_t(v * nd * spp)];
+    }
+  }
+  for (int c : one) EXPECT_EQ(c, 1);
+  for (int c : split) EXPECT_EQ(c, 1);
+  EXPECT_LT(in_order, spp / 2);
+  EXPECT_LT(pp.lobeAt(0, 0.9999999f), 1.0f);
+}
+
 // A pixel holds the light lattices of two counts (groove footprints' 16 per camera sample, camera
 // hits' fewer): each count reads its own, the first is what it is without the second, and the
 // second's points over the pixel's samples fill its whole lattice, one in every row and column

@@ -777,6 +777,21 @@ TEST(Render, PixelPatternLowersThePathTracersNoise) {
   }
 }
 
+namespace {
+
+// The ring-lit plate in groove mode at 24 x 24 pixels, its one scratch out of view, with the
+// accuracy scenes' dim dome, which the plate's lobe finds mostly by BSDF directions.
+Dataset ringLitPlateUnderDome(int spp) {
+  std::string cfg = ringLitPlate("render: {resolution: [24, 24], spp: " + std::to_string(spp) +
+                                 ", max_bounces: 2, scratches: groove}\n"
+                                 "defects:\n  - {type: scratch, count: 1, length_mm: 2, orientation_deg: 0, "
+                                 "region: [0.9, 0.9, 0.95, 0.95]}\n");
+  cfg.replace(cfg.find("camera:"), 0, "  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n");
+  return prepareDataset(parseConfig(cfg, "test.yaml"));
+}
+
+}  // namespace
+
 // Groove shading's camera hits off the grooves split into camera_hit_bsdf_per_pixel / spp BSDF
 // directions each (32 per pixel from 4 to 32 spp). Drawn independently by each camera sample, the
 // plate's noise rose with spp past 4 (the directions' count stays, their stratification within a
@@ -785,12 +800,7 @@ TEST(Render, PixelPatternLowersThePathTracersNoise) {
 // noise between seeds measured 0.46% at 4 spp and 0.25% at 16 (independent directions: 0.99% and
 // 1.37%); 0.27% at 16 since the camera hits take 8 light samples per light there, not 16.
 TEST(Render, GrooveShadingsPlateNoiseDoesNotRiseWithSpp) {
-  std::string cfg = ringLitPlate("render: {resolution: [24, 24], spp: 4, max_bounces: 2, scratches: groove}\n"
-                                 "defects:\n  - {type: scratch, count: 1, length_mm: 2, orientation_deg: 0, "
-                                 "region: [0.9, 0.9, 0.95, 0.95]}\n");
-  // And the accuracy scenes' dim dome, which the plate's lobe finds mostly by BSDF directions.
-  cfg.replace(cfg.find("camera:"), 0, "  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n");
-  Dataset ds = prepareDataset(parseConfig(cfg, "test.yaml"));
+  const Dataset ds = ringLitPlateUnderDome(4);
   std::map<int, double> rel;
   for (int spp : {4, 16}) {
     rel[spp] = noiseOverSeeds(ds, 300, [spp](RenderSettings& st) { st.spp = spp; });
@@ -808,11 +818,7 @@ TEST(Render, GrooveShadingsPlateNoiseDoesNotRiseWithSpp) {
 // a third). Where the camera hits drew their 2 samples from a lattice of their own, not the
 // pixel's, the noise was 2.95%.
 TEST(Render, GrooveShadingsCameraHitsShareTheirLightSamplesOverThePixel) {
-  std::string cfg = ringLitPlate("render: {resolution: [24, 24], spp: 64, max_bounces: 2, scratches: groove}\n"
-                                 "defects:\n  - {type: scratch, count: 1, length_mm: 2, orientation_deg: 0, "
-                                 "region: [0.9, 0.9, 0.95, 0.95]}\n");
-  cfg.replace(cfg.find("camera:"), 0, "  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n");
-  Dataset ds = prepareDataset(parseConfig(cfg, "test.yaml"));
+  const Dataset ds = ringLitPlateUnderDome(64);
   auto every = [](RenderSettings& st) { st.camera_hit_light_per_pixel = 1 << 20; };
   auto shared = [](RenderSettings&) {};
   auto rays = [&](auto tweak) {

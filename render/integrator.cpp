@@ -740,10 +740,11 @@ class Tracer {
       // the light samples and more than one (env_by_bsdf_): at 1 and 2 spp. From 4 spp on a
       // camera sample splits into fewer (the pixel's samples share 32), and from 128 spp it takes
       // one direction and one light sample, as the path tracer does: there the dome's light
-      // samples are what brings the plate's noise down with spp (on car paint under a dome alone,
-      // with one of each per camera sample at 64 spp, the plate's relative pixel noise was 1.14%
-      // with the dome left to the directions, 0.88% with its light samples, as the path
-      // tracer's 0.89%).
+      // samples are what brings the plate's noise down with spp, as they did before the camera
+      // hits' light samples fell with spp (cameraHitLights). (Measured on car paint under a dome
+      // alone with one of each per camera sample at 64 spp, before the lobe choice took strata
+      // over the pixel: 1.14% of relative pixel noise with the dome left to the directions, 0.88%
+      // with its light samples, as the path tracer's 0.89%; car paint now takes the rule below.)
       // On car paint the directions alone do better at every count: its clear coat's sharp lobe
       // and its base's cosine lobe are what BSDF sampling draws, while the dome's light samples
       // fall mostly where neither is. Measured (relative pixel noise on the plate, 2 threads):

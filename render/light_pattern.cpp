@@ -18,6 +18,13 @@ double tent(double u) { return 1.0 - std::fabs(2.0 * u - 1.0); }
 // In [0, 1) also after rounding to float.
 float below1(double u) { return std::min(float(u), 0x1.fffffep-1f); }
 
+// p = 0, 1, ..., n - 1 in a random order (Fisher-Yates, one draw per position from the top).
+void shuffledRange(std::vector<int>& p, size_t n, Rng& rng) {
+  p.resize(n);
+  for (size_t i = 0; i < n; ++i) p[i] = int(i);
+  for (size_t i = n; i-- > 1;) std::swap(p[i], p[rng.next32() % uint32_t(i + 1)]);
+}
+
 }  // namespace
 
 int latticeGenerator(int n, int m, int r) {
@@ -86,9 +93,7 @@ void PixelPattern::reset(int spp, int g, int dims, Rng& rng) {
     const int b = int(rng.next32() % uint32_t(n_));
     dims_.push_back({pat, a, b});
   }
-  lobe1_.resize(size_t(n_));
-  for (int i = 0; i < n_; ++i) lobe1_[size_t(i)] = i;
-  for (int i = n_ - 1; i > 0; --i) std::swap(lobe1_[size_t(i)], lobe1_[rng.next32() % uint32_t(i + 1)]);
+  shuffledRange(lobe1_, size_t(n_), rng);
 }
 
 Vec2f PixelPattern::at(int d, int s, bool periodic_y) const {
@@ -107,9 +112,7 @@ void PixelPattern::resetDirections(int nd, int g, Rng& rng) {
   nd_ = nd;
   dirs_.clear();
   dirs_.emplace_back(nd * n_, g, rng);
-  lobes_.resize(size_t(nd * n_));
-  for (size_t i = 0; i < lobes_.size(); ++i) lobes_[i] = int(i);
-  for (size_t i = lobes_.size() - 1; i > 0; --i) std::swap(lobes_[i], lobes_[rng.next32() % (i + 1)]);
+  shuffledRange(lobes_, size_t(nd * n_), rng);
 }
 
 }  // namespace dg

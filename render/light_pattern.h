@@ -60,9 +60,7 @@ class PixelPattern {
   Vec2f at(int d, int s, bool periodic_y) const;
   // A number in [0, 1) for camera sample s's lobe choice: the pixel's spp samples take Latin
   // strata (a random permutation), `jitter` placing sample s in its stratum.
-  float lobeAt(int s, float jitter) const {
-    return std::min((float(lobe1_[size_t(s)]) + jitter) / float(n_), kOneMinusEps);
-  }
+  float lobeAt(int s, float jitter) const { return stratum(lobe1_, size_t(s), jitter); }
   // Where every camera sample takes nl samples per light (groove shading's camera hits and
   // footprints): one lattice of nl * spp points per light for the pixel, generator g =
   // latticeGenerator(nl * spp, nl, latticeGenerator(nl)); camera sample s takes its points
@@ -87,15 +85,17 @@ class PixelPattern {
   Vec2f direction(int j, int s) const { return dirs_.front().at(j * n_ + s, false); }
   // And their lobe choice: the nd * spp directions' numbers in [0, 1) are Latin strata over the
   // pixel (a random permutation), `jitter` placing direction j of camera sample s in its stratum.
-  float lobe(int j, int s, float jitter) const {
-    return std::min((float(lobes_[size_t(j * n_ + s)]) + jitter) / float(lobes_.size()), kOneMinusEps);
-  }
+  float lobe(int j, int s, float jitter) const { return stratum(lobes_, size_t(j * n_ + s), jitter); }
 
  private:
   struct Dim {
     LightPattern pat;
     int a, b;
   };
+  // Point i of Latin strata p (a permutation of the strata): its stratum, `jitter` within it.
+  static float stratum(const std::vector<int>& p, size_t i, float jitter) {
+    return std::min((float(p[i]) + jitter) / float(p.size()), kOneMinusEps);
+  }
   struct LightSet {
     int nl = 0;  // light samples per camera sample; 0: unused
     std::vector<LightPattern> lights;

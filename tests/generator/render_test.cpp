@@ -532,6 +532,18 @@ double relativeNoise(const std::vector<std::vector<float>>& imgs) {
   return std::sqrt(rel);
 }
 
+// The mean of an image's values, and of several renders' (each weighted alike).
+double imageMean(const std::vector<float>& v) {
+  double m = 0;
+  for (float x : v) m += x / double(v.size());
+  return m;
+}
+double meanOverRenders(const std::vector<std::vector<float>>& imgs) {
+  double m = 0;
+  for (const auto& im : imgs) m += imageMean(im) / double(imgs.size());
+  return m;
+}
+
 // relativeNoise over 8 renders of the dataset's first sample with the noise seeds seed0, seed0 + 1,
 // ..., after `tweak(settings)` has set what the test varies.
 template <class Tweak>
@@ -751,11 +763,6 @@ TEST(Render, GrooveShadingsPlateFiltersByThePixelAsThePathTracer) {
 TEST(Render, PixelPatternLowersThePathTracersNoise) {
   Dataset ds = prepareDataset(parseConfig(ringLitPlate("render: {resolution: [24, 24], spp: 16, max_bounces: 2}\n"),
                                           "test.yaml"));
-  auto imageMean = [](const std::vector<float>& v) {
-    double m = 0;
-    for (float x : v) m += x / double(v.size());
-    return m;
-  };
   // The pattern keeps the mean: 1024 renders at 1 spp (no pattern: one sample per pixel) give the
   // image's mean within about 0.1% (with 2048: 0.9996 and 1.0007 of it at 16 and 64 spp).
   double mean1 = 0;
@@ -767,8 +774,7 @@ TEST(Render, PixelPatternLowersThePathTracersNoise) {
   }
   for (auto [spp, limit] : {std::pair{16, 0.06}, {64, 0.015}}) {
     const std::vector<std::vector<float>> imgs = rendersOverSeeds(ds, 8, 700, [spp = spp](RenderSettings& st) { st.spp = spp; });
-    double mean = 0;
-    for (const auto& im : imgs) mean += imageMean(im) / double(imgs.size());
+    const double mean = meanOverRenders(imgs);
     EXPECT_NEAR(mean / mean1, 1.0, 0.005) << spp << " spp";
     const double rel = relativeNoise(imgs);
     std::printf("[          ] %d spp: relative noise %.4f, image mean / 1-spp mean %.4f\n", spp, rel, mean / mean1);
@@ -828,12 +834,7 @@ TEST(Render, GrooveShadingsCameraHitsShareTheirLightSamplesOverThePixel) {
   };
   const double ratio = rays(shared) / rays(every);
   const auto a = rendersOverSeeds(ds, 8, 40, every), b = rendersOverSeeds(ds, 8, 40, shared);
-  double ma = 0, mb = 0;
-  for (size_t r = 0; r < a.size(); ++r)
-    for (size_t i = 0; i < a[r].size(); ++i) {
-      ma += a[r][i] / double(a.size() * a[r].size());
-      mb += b[r][i] / double(b.size() * b[r].size());
-    }
+  const double ma = meanOverRenders(a), mb = meanOverRenders(b);
   const double na = relativeNoise(a), nb = relativeNoise(b);
   std::printf("[          ] rays %.3f of 16 per light; relative noise %.4f against %.4f; means %.5f, %.5f\n", ratio, nb,
               na, mb, ma);
@@ -865,10 +866,7 @@ TEST(Render, GrooveShadingsPaintTakesItsLobeChoicesOverThePixel) {
         st.spp = spp;
         st.pixel_lobe_strata = pixel;
       });
-      double m = 0;
-      for (const auto& im : imgs)
-        for (float v : im) m += v / double(imgs.size() * im.size());
-      return std::pair{relativeNoise(imgs), m};
+      return std::pair{relativeNoise(imgs), meanOverRenders(imgs)};
     };
     const auto [own, own_mean] = run(false);
     const auto [pixel, pixel_mean] = run(true);

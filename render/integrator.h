@@ -91,6 +91,17 @@ struct RenderSettings {
   // (Tracer::cameraHitSplit).
   int camera_hit_bsdf_samples = 32;
   int camera_hit_bsdf_per_pixel = 32;
+  // On a car-paint part, 128 (32 per camera sample up to 4 spp, then 16, 8, 4, 2, 1): the paint's
+  // plate is lit mostly through these directions (the clear coat's sharp lobe and the base's
+  // cosine lobe; a dome takes no light samples on paint), and with 32 per pixel it was the
+  // noisiest part of a render above 2 spp. The plate's RMS error against a converged reference on
+  // configs/scratch_rust.yaml at 320 x 240, 2 threads: 4 spp 1.59% in 1.52 s -> 0.80% in 2.33 s;
+  // 16 spp 1.59% in 2.86 s -> 0.69% in 3.71 s (64 per pixel: 1.01% in 3.27 s); 64 spp 0.99% in
+  // 5.71 s -> 0.68% in 6.18 s. configs/scratched_door.yaml at 256 x 256 and 4 spp, robust pixel
+  // noise between noise seeds: 0.33% in 0.82 s -> 0.18% in 1.49 s (64: 0.24% in 1.06 s). 256 and
+  // 512 per pixel did worse than 128 at 16 spp (0.92% and 1.10%), not understood. Other
+  // materials keep 32 (not measured there).
+  int camera_hit_bsdf_per_pixel_paint = 128;
   // And light samples per light at those camera hits: groove_light_samples, but no more than
   // camera_hit_light_per_pixel / spp (16 up to 8 spp, then 8, 4, 2, 1 at 16, 32, 64, 128 spp;
   // the pixel's samples share them by a lattice, PixelPattern::resetLights). With 16 at every

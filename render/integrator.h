@@ -99,9 +99,9 @@ struct RenderSettings {
   // 16 spp 1.59% in 2.86 s -> 0.69% in 3.71 s (64 per pixel: 1.01% in 3.27 s); 64 spp 0.99% in
   // 5.71 s -> 0.68% in 6.18 s. configs/scratched_door.yaml at 256 x 256 and 4 spp, robust pixel
   // noise between noise seeds: 0.33% in 0.82 s -> 0.18% in 1.49 s (64: 0.24% in 1.06 s). 256 and
-  // 512 per pixel did worse than 128 at 16 spp (0.92% and 1.10%; with each camera sample's own
-  // lobe strata instead of the pixel's 0.52% and 0.36%, not understood: docs/rendering.md).
-  // Other materials keep 32 (not measured there).
+  // 512 per pixel are better for the time at 16 spp (0.49% in 4.78 s, 0.38% in 6.92 s) but take
+  // up to twice as long per sample; below 8 spp the cap of 32 per camera sample makes them the
+  // same as 128. Other materials keep 32 (not measured there).
   int camera_hit_bsdf_per_pixel_paint = 128;
   // And light samples per light at those camera hits: groove_light_samples, but no more than
   // camera_hit_light_per_pixel / spp (16 up to 8 spp, then 8, 4, 2, 1 at 16, 32, 64, 128 spp;

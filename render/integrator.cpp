@@ -1,6 +1,5 @@
 #include "render/integrator.h"
 
-#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -210,19 +209,6 @@ class Tracer {
     for (int d = 1; d * d <= st.groove_light_samples; ++d)
       if (st.groove_light_samples % d == 0) sub_count_ = d;
     findBlockers();
-  }
-
-  // The lattice generator for n points, from a table up to 64 (every count of light samples and
-  // split directions the settings give, unless raised past it); others are found on the spot.
-  // The search is O(n^2): found anew at every camera hit for the 8 light samples per light of
-  // camera hits at 16 spp, it took 4% of configs/scratch_rust.yaml's time.
-  static int latticeG(int n) {
-    static const std::array<int, 65> table = [] {
-      std::array<int, 65> t{};
-      for (int k = 1; k < int(t.size()); ++k) t[size_t(k)] = latticeGenerator(k);
-      return t;
-    }();  // 0.5 ms, once per process
-    return n > 0 && n < int(table.size()) ? table[size_t(n)] : latticeGenerator(n);
   }
 
   SurfacePoint surface(const Hit& h, const DiffRay& r, bool need_footprint) const {
@@ -507,7 +493,7 @@ class Tracer {
     const int nal = int(s_.lights.area.size());
     for (int li = 0; li < nal; ++li) {
       const AreaLight& al = s_.lights.area[size_t(li)];
-      const LightPattern pat(nl, latticeG(nl), rng);
+      const LightPattern pat(nl, latticeGenerator(nl), rng);
       for (int k = 0; k < nl; ++k) {
         Vec3f wl;
         float dist, pl, rel = 1.0f;
@@ -518,7 +504,7 @@ class Tracer {
       }
     }
     if (s_.lights.env && with_env) {
-      const LightPattern pat(nl, latticeG(nl), rng);
+      const LightPattern pat(nl, latticeGenerator(nl), rng);
       for (int k = 0; k < nl; ++k) {
         Rgb Le;
         float pe;
@@ -829,7 +815,7 @@ class Tracer {
         const bool lattice = depth == 0 && !glass_split;
         LatinStrata lhs(n, lattice ? 1 : 2, rng);
         std::optional<LightPattern> dirs;
-        if (lattice && !(pads && pads->directionCount() == n)) dirs.emplace(n, latticeG(n), rng);
+        if (lattice && !(pads && pads->directionCount() == n)) dirs.emplace(n, latticeGenerator(n), rng);
         const float inv = 1.0f / float(n);
         for (int j = 0; j < n; ++j) {
           BsdfSample bs;
@@ -2097,7 +2083,7 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
   // And their split BSDF directions off the grooves (PixelPattern::direction; a glass hit that
   // takes fewer draws its own lattice).
   const int split = tracer.grooves_ ? tracer.cameraHitSplit() : 1;
-  const int split_g = st.spp > 1 && split > 1 ? latticeGenerator(split * st.spp, split, tracer.latticeG(split)) : 0;
+  const int split_g = st.spp > 1 && split > 1 ? latticeGenerator(split * st.spp, split, latticeGenerator(split)) : 0;
 
   parallelFor(size_t(tx) * ty, [&](size_t t) {
     int x0 = int(t % tx) * tile, y0 = int(t / tx) * tile;

@@ -26,7 +26,8 @@ namespace dg {
 // largest Zaremba index, then the largest smallest distance between two points on the unit torus
 // (the first such g); 1 for n <= 3. Prime to n, every row and every column of the n x n grid
 // holds one point (a Latin square), so a light that varies along one coordinate only is sampled
-// in n strata. O(n^2) up to 1024 points; past that only generators near n / 1.618 are tried.
+// in n strata. O(n^2) up to 1024 points (up to 64 without m and r, from a table built once); past
+// that only generators near n / 1.618 are tried.
 // With m > 1, only generators g = r (mod m) are considered: the lattice of n = m p points then
 // splits into p sub-lattices {k p + s : k < m} (s < p), each the m-point lattice of generator r,
 // so with r = latticeGenerator(m) every part is a good lattice too (PixelPattern::light).

@@ -589,9 +589,10 @@ class Tracer {
   }
   int padDimensions() const { return int(s_.lights.area.size()) + 3; }
   // BSDF directions a camera hit off the grooves splits into when groove shading is on: at most
-  // camera_hit_bsdf_samples (and 64), and no more than camera_hit_bsdf_per_pixel / spp. On glass
-  // at most 8: there each direction is a path through the part, and 32 at 1 spp cost the lens
-  // scenes 35-40% more time for the same error (mean dE 0.33, 0.31, 0.19 with either).
+  // camera_hit_bsdf_samples (and 64), and no more than camera_hit_bsdf_per_pixel / spp (on a
+  // car-paint part camera_hit_bsdf_per_pixel_paint / spp). On glass at most 8: there each
+  // direction is a path through the part, and 32 at 1 spp cost the lens scenes 35-40% more time
+  // for the same error (mean dE 0.33, 0.31, 0.19 with either).
   int cameraHitSplit(bool glass = false) const {
     const bool paint = s_.material.kind == MaterialKind::CarPaint;
     const int per_pixel = paint ? st_.camera_hit_bsdf_per_pixel_paint : st_.camera_hit_bsdf_per_pixel;

@@ -257,6 +257,7 @@ double Surface::heightAt(Vec2d p) const {
 
 bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   pieces_.clear();
+  bounds_.clear();
   cache_keys_ = 0;
   walls_.clear();
   grooves_ = grooves;
@@ -404,7 +405,10 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
     pc.zmax = -1e300;
     for (int k = 0; k < pc.poly.n; ++k) pc.zmax = std::max(pc.zmax, pc.plane.at(pc.poly.v[size_t(k)]));
   };
-  for (Piece& pc : pieces_) bound(pc);
+  for (Piece& pc : pieces_) {
+    bound(pc);
+    bounds_.push_back({pc.lo, pc.hi, pc.zmax, pc.plane});
+  }
   std::vector<Piece> leaning;  // appended to pieces_ at the end
   for (size_t pi = 0; pi < n_flat; ++pi)
     for (int k = 0; k < pieces_[pi].poly.n; ++k) {
@@ -437,8 +441,8 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
       const Vec2d slo(std::min(e0.x, e1.x) - 2 * kStep, std::min(e0.y, e1.y) - 2 * kStep);
       const Vec2d shi(std::max(e0.x, e1.x) + 2 * kStep, std::max(e0.y, e1.y) + 2 * kStep);
       for (size_t qi = 0; qi < n_flat; ++qi) {
+        if (qi == pi || !BBox(bounds_[qi].lo, bounds_[qi].hi).overlaps(BBox(slo, shi))) continue;
         const Piece& Q = pieces_[qi];
-        if (qi == pi || !BBox(Q.lo, Q.hi).overlaps(BBox(slo, shi))) continue;
         double t0 = 0, t1 = 1;
         for (int j = 0; j < Q.poly.n && t0 < t1; ++j) {
           Vec2d hn;
@@ -516,9 +520,65 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
         }
       }
     }
-  for (Piece& pc : leaning) bound(pc);
+  for (Piece& pc : leaning) {
+    bound(pc);
+    bounds_.push_back({pc.lo, pc.hi, pc.zmax, pc.plane});
+  }
   pieces_.insert(pieces_.end(), leaning.begin(), leaning.end());
+  binPieces();
   return true;
+}
+
+int Surface::binOf(double v, int axis) const {
+  const double lo = axis == 0 ? bin_lo_.x : bin_lo_.y, size = axis == 0 ? bin_size_.x : bin_size_.y;
+  const double f = (v - lo) / size;  // monotone in v, so overlapping ranges get overlapping bins
+  if (!(f > 0)) return 0;            // also NaN: the whole range, which is safe
+  if (!(f < double(kBins - 1))) return kBins - 1;
+  return int(f);
+}
+
+void Surface::binPieces() {
+  Vec2d lo(1e300, 1e300), hi(-1e300, -1e300);
+  zmax_all_ = -1e300;
+  for (const Bound& b : bounds_) {
+    lo = Vec2d(std::min(lo.x, b.lo.x), std::min(lo.y, b.lo.y));
+    hi = Vec2d(std::max(hi.x, b.hi.x), std::max(hi.y, b.hi.y));
+    zmax_all_ = std::max(zmax_all_, b.zmax);
+  }
+  bin_lo_ = lo;
+  bin_size_ = Vec2d(std::max((hi.x - lo.x) / kBins, 1e-300), std::max((hi.y - lo.y) / kBins, 1e-300));
+  words_ = (bounds_.size() + 63) / 64;
+  col_bits_.assign(size_t(kBins) * words_, 0);
+  row_bits_.assign(size_t(kBins) * words_, 0);
+  for (size_t i = 0; i < bounds_.size(); ++i) {
+    const uint64_t bit = uint64_t(1) << (i % 64);
+    for (int c = binOf(bounds_[i].lo.x, 0), c1 = binOf(bounds_[i].hi.x, 0); c <= c1; ++c)
+      col_bits_[size_t(c) * words_ + i / 64] |= bit;
+    for (int r = binOf(bounds_[i].lo.y, 1), r1 = binOf(bounds_[i].hi.y, 1); r <= r1; ++r)
+      row_bits_[size_t(r) * words_ + i / 64] |= bit;
+  }
+}
+
+void Surface::candidates(const Plane& P, double den, Vec3d d, Vec2d lo, Vec2d hi, std::vector<size_t>& out) const {
+  // No piece reaches higher than zmax_all_ nor lies outside the bins' box, over which P is at
+  // least pmin. So every piece that shadowsOn's reaches() lets through lies within [lo, hi] moved
+  // by up to lmax d_xy (one bound for all pieces at once), and its bins meet that box's. A margin
+  // covers the rounding of the two ways of putting it.
+  out.clear();
+  const Vec2d blo = bin_lo_, bhi = bin_lo_ + bin_size_ * double(kBins);
+  const double pmin = P.z0 + std::min(P.g.x * blo.x, P.g.x * bhi.x) + std::min(P.g.y * blo.y, P.g.y * bhi.y);
+  const double lmax = std::max(0.0, (zmax_all_ - pmin) / den);
+  const double margin = 1e-9 * (bhi.x - blo.x + bhi.y - blo.y) + 1e-12;
+  const int c0 = binOf(std::min(lo.x, lo.x + lmax * d.x) - margin, 0);
+  const int c1 = binOf(std::max(hi.x, hi.x + lmax * d.x) + margin, 0);
+  const int r0 = binOf(std::min(lo.y, lo.y + lmax * d.y) - margin, 1);
+  const int r1 = binOf(std::max(hi.y, hi.y + lmax * d.y) + margin, 1);
+  for (size_t w = 0; w < words_; ++w) {
+    uint64_t cols = 0, rows = 0;
+    for (int c = c0; c <= c1; ++c) cols |= col_bits_[size_t(c) * words_ + w];
+    for (int r = r0; r <= r1; ++r) rows |= row_bits_[size_t(r) * words_ + w];
+    for (uint64_t m = cols & rows; m; m &= m - 1) out.push_back(w * 64 + size_t(__builtin_ctzll(m)));
+  }
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -548,10 +608,13 @@ void Surface::shadowsOn(size_t pi, Vec3d d, Vec2d lo, Vec2d hi, std::vector<Poly
     return qlo.x + std::min(0.0, sx) <= hi.x && qhi.x + std::max(0.0, sx) >= lo.x &&
            qlo.y + std::min(0.0, sy) <= hi.y && qhi.y + std::max(0.0, sy) >= lo.y;
   };
-  for (size_t qi = 0; qi < pieces_.size(); ++qi) {
+  thread_local std::vector<size_t> near;
+  candidates(P, den, d, lo, hi, near);
+  for (size_t qi : near) {
+    const Bound& b = bounds_[qi];
+    if (!(facing(b.plane, d) < 0)) continue;  // only pieces facing away from d block it
+    if (!reaches(b.lo, b.hi, b.zmax)) continue;
     const Piece& Q = pieces_[qi];
-    if (!(facing(Q.plane, d) < 0)) continue;  // only pieces facing away from d block it
-    if (!reaches(Q.lo, Q.hi, Q.zmax)) continue;
     // The part of Q on the d-side of P's plane: Q(p) - P(p) >= 0.
     Poly q = clip(Q.poly, P.g - Q.plane.g, P.z0 - Q.plane.z0);
     if (q.empty()) continue;

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <vector>
 
@@ -479,6 +480,77 @@ TEST(GrooveArea, RandomLayoutsKeepTheirInvariants) {
   }
   EXPECT_GT(built, 250);
   EXPECT_GT(with_walls, 60);
+}
+
+// The search for occluders (Surface::shadowsOn) tests only the pieces binned near the receiving
+// portion and its shadow's reach. Against a full scan of every piece, done here from the public
+// pieces (each piece facing away from the light, cut to where it stands above the portion's
+// plane, projected along the light onto it and subtracted), the lit fractions must agree: a piece
+// the bins left out would leave its shadow out. Random layouts of up to six grooves, lights down
+// to 1 degree above the plane (shadows across the whole region).
+TEST(GrooveArea, LitFractionsFindEveryOccluder) {
+  Rng rng(20261128);
+  auto uni = [&](double a, double b) { return a + (b - a) * rng.uniformD(); };
+  auto dir = [&](double z_lo, double z_hi) {
+    double phi = uni(0, 2 * M_PI), z = uni(z_lo, z_hi), r = std::sqrt(1 - z * z);
+    return Vec3d(r * std::cos(phi), r * std::sin(phi), z);
+  };
+  auto fullScan = [](const Surface& s, const Portion& p, Vec3d l) {
+    const Plane& P = s.pieces()[size_t(p.piece)].plane;
+    const double den = l.z - P.g.x * l.x - P.g.y * l.y;
+    if (!(den > 0)) return 0.0;
+    std::vector<Poly> frags = p.frags;
+    size_t dropped = 0;
+    for (const Piece& Q : s.pieces()) {
+      if (!(l.z - Q.plane.g.x * l.x - Q.plane.g.y * l.y < 0)) continue;
+      const Poly q = clip(Q.poly, P.g - Q.plane.g, P.z0 - Q.plane.z0);
+      if (q.empty()) continue;
+      Poly sh;
+      for (int i = 0; i < q.n; ++i) {
+        const Vec2d v = q.v[size_t(i)];
+        const double lambda = (Q.plane.at(v) - P.at(v)) / den;
+        sh.push(Vec2d(v.x - lambda * l.x, v.y - lambda * l.y));
+      }
+      if (sh.area() < 0) std::reverse(sh.v, sh.v + sh.n);
+      if (sh.empty() || !(sh.area() > 1e-16)) continue;
+      subtract(frags, sh, Surface::kMaxFragments, dropped);
+    }
+    return area(frags) / area(p.frags);
+  };
+  int compared = 0, shaded = 0, far_shadows = 0;
+  for (int it = 0; it < 120; ++it) {
+    const int ng = 2 + int(rng.uniformD() * 5);
+    std::vector<Groove> gs;
+    for (int i = 0; i < ng; ++i) {
+      const double a = uni(0, M_PI);
+      Groove g = along(Vec2d(std::cos(a), std::sin(a)), uni(-0.15, 0.15), i);
+      if (rng.uniformD() < 0.3) g.t_hi = uni(-0.1, 0.2);
+      if (rng.uniformD() < 0.3) g.rho = uni(-8, 8);
+      gs.push_back(g);
+    }
+    Surface s;
+    if (!s.build(rect(-0.3, -0.3, 0.3, 0.3), gs)) continue;
+    const double h = uni(0.01, 0.05);
+    const Vec2d c(uni(-0.2, 0.2), uni(-0.2, 0.2));
+    for (int k = 0; k < 4; ++k) {
+      const Vec3d e = dir(0.3, 1.0), l = k < 2 ? dir(0.017, 0.1) : dir(0.1, 0.9);
+      s.overflow = 0;
+      for (const Portion& p : s.visible(rect(c.x - h, c.y - h, c.x + h, c.y + h), e)) {
+        if (!(area(p.frags) > 1e-12)) continue;
+        const double lit = s.litFraction(p, l), full = fullScan(s, p, l);
+        if (s.overflow > 0) break;  // fragments dropped at the cap: the two may differ
+        ASSERT_NEAR(lit, full, 1e-9) << "layout " << it << ", light " << k;
+        ++compared;
+        shaded += full < 1 - 1e-9;
+        far_shadows += k < 2 && full < 0.5;
+      }
+    }
+  }
+  std::printf("[          ] %d portions compared, %d in some shadow, %d under a grazing light more than half\n", compared,
+              shaded, far_shadows);
+  EXPECT_GT(compared, 1000);
+  EXPECT_GT(shaded, 200);
+  EXPECT_GT(far_shadows, 50);
 }
 
 // Past the caps build() refuses (the renderer then falls back to the blend): more than 8

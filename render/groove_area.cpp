@@ -257,7 +257,6 @@ double Surface::heightAt(Vec2d p) const {
 
 bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   pieces_.clear();
-  bounds_.clear();
   cache_keys_ = 0;
   walls_.clear();
   grooves_ = grooves;
@@ -405,10 +404,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
     pc.zmax = -1e300;
     for (int k = 0; k < pc.poly.n; ++k) pc.zmax = std::max(pc.zmax, pc.plane.at(pc.poly.v[size_t(k)]));
   };
-  for (Piece& pc : pieces_) {
-    bound(pc);
-    bounds_.push_back({pc.lo, pc.hi, pc.zmax, pc.plane});
-  }
+  for (Piece& pc : pieces_) bound(pc);
   std::vector<Piece> leaning;  // appended to pieces_ at the end
   for (size_t pi = 0; pi < n_flat; ++pi)
     for (int k = 0; k < pieces_[pi].poly.n; ++k) {
@@ -441,8 +437,8 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
       const Vec2d slo(std::min(e0.x, e1.x) - 2 * kStep, std::min(e0.y, e1.y) - 2 * kStep);
       const Vec2d shi(std::max(e0.x, e1.x) + 2 * kStep, std::max(e0.y, e1.y) + 2 * kStep);
       for (size_t qi = 0; qi < n_flat; ++qi) {
-        if (qi == pi || !BBox(bounds_[qi].lo, bounds_[qi].hi).overlaps(BBox(slo, shi))) continue;
         const Piece& Q = pieces_[qi];
+        if (qi == pi || !BBox(Q.lo, Q.hi).overlaps(BBox(slo, shi))) continue;
         double t0 = 0, t1 = 1;
         for (int j = 0; j < Q.poly.n && t0 < t1; ++j) {
           Vec2d hn;
@@ -520,10 +516,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
         }
       }
     }
-  for (Piece& pc : leaning) {
-    bound(pc);
-    bounds_.push_back({pc.lo, pc.hi, pc.zmax, pc.plane});
-  }
+  for (Piece& pc : leaning) bound(pc);
   pieces_.insert(pieces_.end(), leaning.begin(), leaning.end());
   binPieces();
   return true;
@@ -540,21 +533,21 @@ int Surface::binOf(double v, int axis) const {
 void Surface::binPieces() {
   Vec2d lo(1e300, 1e300), hi(-1e300, -1e300);
   zmax_all_ = -1e300;
-  for (const Bound& b : bounds_) {
-    lo = Vec2d(std::min(lo.x, b.lo.x), std::min(lo.y, b.lo.y));
-    hi = Vec2d(std::max(hi.x, b.hi.x), std::max(hi.y, b.hi.y));
-    zmax_all_ = std::max(zmax_all_, b.zmax);
+  for (const Piece& pc : pieces_) {
+    lo = Vec2d(std::min(lo.x, pc.lo.x), std::min(lo.y, pc.lo.y));
+    hi = Vec2d(std::max(hi.x, pc.hi.x), std::max(hi.y, pc.hi.y));
+    zmax_all_ = std::max(zmax_all_, pc.zmax);
   }
   bin_lo_ = lo;
   bin_size_ = Vec2d(std::max((hi.x - lo.x) / kBins, 1e-300), std::max((hi.y - lo.y) / kBins, 1e-300));
-  words_ = (bounds_.size() + 63) / 64;
+  words_ = (pieces_.size() + 63) / 64;
   col_bits_.assign(size_t(kBins) * words_, 0);
   row_bits_.assign(size_t(kBins) * words_, 0);
-  for (size_t i = 0; i < bounds_.size(); ++i) {
+  for (size_t i = 0; i < pieces_.size(); ++i) {
     const uint64_t bit = uint64_t(1) << (i % 64);
-    for (int c = binOf(bounds_[i].lo.x, 0), c1 = binOf(bounds_[i].hi.x, 0); c <= c1; ++c)
+    for (int c = binOf(pieces_[i].lo.x, 0), c1 = binOf(pieces_[i].hi.x, 0); c <= c1; ++c)
       col_bits_[size_t(c) * words_ + i / 64] |= bit;
-    for (int r = binOf(bounds_[i].lo.y, 1), r1 = binOf(bounds_[i].hi.y, 1); r <= r1; ++r)
+    for (int r = binOf(pieces_[i].lo.y, 1), r1 = binOf(pieces_[i].hi.y, 1); r <= r1; ++r)
       row_bits_[size_t(r) * words_ + i / 64] |= bit;
   }
 }
@@ -611,10 +604,9 @@ void Surface::shadowsOn(size_t pi, Vec3d d, Vec2d lo, Vec2d hi, std::vector<Poly
   thread_local std::vector<size_t> near;
   candidates(P, den, d, lo, hi, near);
   for (size_t qi : near) {
-    const Bound& b = bounds_[qi];
-    if (!(facing(b.plane, d) < 0)) continue;  // only pieces facing away from d block it
-    if (!reaches(b.lo, b.hi, b.zmax)) continue;
     const Piece& Q = pieces_[qi];
+    if (!(facing(Q.plane, d) < 0)) continue;  // only pieces facing away from d block it
+    if (!reaches(Q.lo, Q.hi, Q.zmax)) continue;
     // The part of Q on the d-side of P's plane: Q(p) - P(p) >= 0.
     Poly q = clip(Q.poly, P.g - Q.plane.g, P.z0 - Q.plane.z0);
     if (q.empty()) continue;

@@ -175,14 +175,6 @@ class Surface {
   void shadowsOn(size_t pi, Vec3d d, Vec2d lo, Vec2d hi, std::vector<Poly>& out, std::vector<double>* dist,
                  std::vector<size_t>* owner) const;
   std::vector<Piece> pieces_;
-  // Each piece's box, highest point and plane, packed (64 bytes against a Piece's 700, most of
-  // them its polygon), for the tests that look at every piece.
-  struct Bound {
-    Vec2d lo, hi;
-    double zmax;
-    Plane plane;
-  };
-  std::vector<Bound> bounds_;
   // Which pieces can block a direction: shadowsOn is asked for every portion, light sample and
   // continued direction, and of the pieces it tests against a box only 0.5% (the accuracy scenes'
   // crossings) to 2.5% (a dense cluster) can reach the receiving portion. The region's box is cut

@@ -235,6 +235,58 @@ class Generate(unittest.TestCase):
             f.write(SMALL.replace("  exr: true", "  exr: true\n  exposure_stops: -8"))
         self.assertNotIn("warning", run("generate", dim, "--out", os.path.join(d, "dim"), "--count", "1").stderr)
 
+    def test_footprints_shaded_by_the_blend_are_warned_about(self):
+        # Sixteen scratches crossing within 1 mm (scripts/fuzz-grooves --kind clusters --seed 10,
+        # c10_15, at 16 x 16 and 1 spp): some footprints pass the polygon caps and fall back to the
+        # blend, which rendered that layout with 5% of its pixels at dE >= 10, and said nothing.
+        d = work("blended")
+        head = """seed: 11
+part: {type: plate, width_mm: 20, height_mm: 20}
+material: {type: metal, metal: aluminium, roughness: 0.15}
+lights:
+  - {type: bar, length_mm: 300, width_mm: 20, distance_mm: 200, elevation_deg: 12, azimuth_deg: 90, radiance: [6, 6, 6]}
+camera: {fov_deg: 3, position: [0, 0, 60], target: [0, 0, 0]}
+render: {resolution: [16, 16], spp: 1, max_bounces: 4, scratches: groove}
+defects:
+"""
+        dense = head + """  - {type: scratch, count: 6, orientation_deg: 9, length_mm: 4.8, force_kg: 2.39, hardness_hv: 60,
+     region: [0.4705, 0.4711, 0.5627, 0.5633], curvature_per_mm: {uniform: [0.02, 0.2]}, fade_mm: 0.3}
+  - {type: scratch, count: 4, orientation_deg: {uniform: [0, 180]}, length_mm: 5.3, force_kg: 2.3, hardness_hv: 60,
+     region: [0.5053, 0.4674, 0.5214, 0.4835], fade_mm: 0}
+  - {type: scratch, count: 6, orientation_deg: 97, length_mm: 4.1, force_kg: 3.85, hardness_hv: 20,
+     region: [0.5151, 0.4725, 0.5391, 0.4965]}
+"""
+        # Two scratches crossing: polygons, never the blend.
+        sparse = head + """  - {type: scratch, count: 1, orientation_deg: 0, length_mm: 9, region: [0.49, 0.49, 0.51, 0.51]}
+  - {type: scratch, count: 1, orientation_deg: 90, length_mm: 9, region: [0.49, 0.49, 0.51, 0.51]}
+"""
+        for name, text in (("dense", dense), ("sparse", sparse)):
+            with open(os.path.join(d, name + ".yaml"), "w") as f:
+                f.write(text)
+        cfg = os.path.join(d, "dense.yaml")
+        out = os.path.join(d, "dense")
+        p = run("generate", cfg, "--out", out, "--count", "2", "--quiet")
+        warnings = [l for l in p.stderr.splitlines() if "warning" in l]
+        self.assertEqual(len(warnings), 2, p.stderr)
+        counts = [s["groove_footprints"] for s in load_json(os.path.join(out, "manifest.json"))["last_run"]["timings"]["samples"]]
+        c = counts[0]
+        total = c["sections"] + c["polygons"] + c["fallbacks"]
+        self.assertGreaterEqual(c["fallbacks"] * 100, total)
+        self.assertEqual(warnings[0], "defectgen: warning: sample 000000: %d of %d groove footprints (%.1f%%) had more "
+                         "scratches or polygon pieces near them than the caps allow and were shaded by the blend, which "
+                         "can miss the glints where dense scratches cross (docs/grooves.md, \"Cost bound and "
+                         "fallback\"); render.scratches: geometry at high spp renders such clusters exactly (%s)"
+                         % (c["fallbacks"], total, 100.0 * c["fallbacks"] / total, cfg))
+        self.assertEqual(warnings[1], "defectgen: warning: 2 of 2 rendered samples shaded 1% or more of their groove "
+                         "footprints by the blend")
+        # The crossing pair: polygon footprints, none on the blend, no warning.
+        out = os.path.join(d, "sparse")
+        p = run("generate", os.path.join(d, "sparse.yaml"), "--out", out, "--count", "1", "--quiet")
+        self.assertNotIn("warning", p.stderr)
+        c = load_json(os.path.join(out, "manifest.json"))["last_run"]["timings"]["samples"][0]["groove_footprints"]
+        self.assertGreater(c["polygons"], 0)
+        self.assertEqual(c["fallbacks"], 0)
+
     def test_a_dataset_grows_with_resume_and_a_larger_count(self):
         # A larger --count with --resume adds samples to a dataset: the folder then holds the same
         # bytes as one run with that count (sample i depends on the seed and i alone). Before, any

@@ -215,8 +215,8 @@ class BlendedFootprints {
                " groove footprints (" + share +
                ") had more scratches or polygon pieces near them than the caps allow and were shaded by the "
                "blend, which can miss the glints where dense scratches cross (docs/grooves.md, \"Cost bound and "
-               "fallback\"); "
-               "render.scratches: geometry at high spp renders such clusters exactly (" + file_ + ")");
+               "fallback\"); render.scratches: geometry at high spp renders such clusters exactly (" +
+               file_ + ")");
   }
 
   void summary(int rendered) const {

@@ -79,13 +79,16 @@ def reach(rows, scene, both=False):
     return min(ok, key=lambda r: r.seconds) if ok else None
 
 
+def never(rows, scene):
+    return "never (up to %d spp)" % max([r.spp for r in of(rows, scene, "groove")] or [0])
+
+
 def ratio_text(rows, scene, both=False):
     """'groove@2, 0.38 s: 1/53.6' or 'never (up to 8 spp)', as bench-grooves prints it."""
-    g = one(rows, scene, "geometry", 64)
     best = reach(rows, scene, both)
     if best is None:
-        return "never (up to %d spp)" % max([r.spp for r in of(rows, scene, "groove")] or [0])
-    return "groove@%d, %.2f s: 1/%.1f" % (best.spp, best.seconds, g.seconds / best.seconds)
+        return never(rows, scene)
+    return "groove@%d, %.2f s: 1/%.1f" % (best.spp, best.seconds, one(rows, scene, "geometry", 64).seconds / best.seconds)
 
 
 def cell(r):
@@ -106,11 +109,10 @@ def markdown(rows):
         if g64 is None:
             ratio = "—"
         elif best is None:
-            ratio = "never (up to %d spp)" % max(groove_spp or [0])
+            ratio = never(rows, sc)
         else:
-            ratio = "1/%.1f (%d spp)" % (g64.seconds / best.seconds, best.spp)
-            if g64.seconds / best.seconds >= TARGET:
-                ratio = "**%s**" % ratio
+            factor = g64.seconds / best.seconds
+            ratio = ("**1/%.1f (%d spp)**" if factor >= TARGET else "1/%.1f (%d spp)") % (factor, best.spp)
         cells = [sc.replace("_", ", "), cell(one(rows, sc, "geometry", 16)), cell(g64)] + \
             [cell(one(rows, sc, "groove", s)) for s in groove_spp] + \
             ["%.2f" % bare.seconds if bare else "—", ratio]

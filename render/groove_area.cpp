@@ -7,10 +7,17 @@
 namespace dg::groove::area {
 
 double Poly::area() const {
+  // The shoelace sum over the edges v[i] -> v[i + 1], the closing edge last (no modulo: this is
+  // called for every polygon the clipping makes).
   double a = 0;
-  for (int i = 0; i < n; ++i) {
+  for (int i = 0; i + 1 < n; ++i) {
     const Vec2d& p = v[size_t(i)];
-    const Vec2d& q = v[size_t((i + 1) % n)];
+    const Vec2d& q = v[size_t(i + 1)];
+    a += p.x * q.y - q.x * p.y;
+  }
+  if (n > 0) {
+    const Vec2d& p = v[size_t(n - 1)];
+    const Vec2d& q = v[0];
     a += p.x * q.y - q.x * p.y;
   }
   return 0.5 * a;
@@ -24,6 +31,29 @@ void Poly::extend(Vec2d& lo, Vec2d& hi) const {
   }
 }
 
+namespace {
+
+// The clipping of p by the sign of f[i] (one value per vertex, f <= 0 kept): the vertices kept, in
+// order, and a new vertex where an edge's ends have strictly opposite signs. The values are taken
+// once per vertex (the clipping is a fifth of a dense cluster's instructions).
+inline void clipBy(const Poly& p, const double* f, Poly& out) {
+  out.n = 0;
+  for (int i = 0; i < p.n; ++i) {
+    const int j = i + 1 < p.n ? i + 1 : 0;
+    const double fs = f[i], fe = f[j];
+    const Vec2d& s = p.v[size_t(i)];
+    if (fs <= 0) out.push(s);
+    if ((fs < 0 && fe > 0) || (fs > 0 && fe < 0)) {
+      const Vec2d& e = p.v[size_t(j)];
+      double t = fs / (fs - fe);
+      out.push(s + (e - s) * t);
+    }
+  }
+  if (out.n < 3) out.n = 0;
+}
+
+}  // namespace
+
 Poly clip(const Poly& p, Vec2d a, double c, bool strict) {
   Poly out;
   if (p.n == 0) return out;
@@ -32,17 +62,21 @@ Poly clip(const Poly& p, Vec2d a, double c, bool strict) {
     bool keep = strict ? c < -1e-13 : c <= 1e-13;
     return keep ? p : out;
   }
+  double f[Poly::kMaxVertices];
+  bool any_in = false, any_out = false;
   for (int i = 0; i < p.n; ++i) {
     const Vec2d& s = p.v[size_t(i)];
-    const Vec2d& e = p.v[size_t((i + 1) % p.n)];
-    double fs = a.x * s.x + a.y * s.y + c, fe = a.x * e.x + a.y * e.y + c;
-    if (fs <= 0) out.push(s);
-    if ((fs < 0 && fe > 0) || (fs > 0 && fe < 0)) {
-      double t = fs / (fs - fe);
-      out.push(s + (e - s) * t);
-    }
+    f[i] = a.x * s.x + a.y * s.y + c;
+    any_in = any_in || f[i] <= 0;
+    any_out = any_out || f[i] > 0;
   }
-  if (out.n < 3) out.n = 0;
+  // Wholly inside: every vertex kept, no new one (an edge changes sign only through a value > 0).
+  if (!any_out) {
+    if (p.n >= 3) out = p;
+    return out;
+  }
+  if (!any_in) return out;  // wholly outside: nothing kept
+  clipBy(p, f, out);
   return out;
 }
 
@@ -111,9 +145,30 @@ void subtract(std::vector<Poly>& frags, const Poly& s, size_t cap, size_t& dropp
       Vec2d n;
       double c;
       if (!edgeHalfPlane(s.v[size_t(i)], s.v[size_t((i + 1) % s.n)], n, c)) continue;
-      Poly outside = clip(rest, n * -1.0, -c);
-      if (!outside.empty() && outside.area() > kSliver) out.push_back(outside);
-      rest = clip(rest, n, c);
+      // The part outside the edge is clip(rest, -n, -c), whose values are exactly the negated
+      // ones (IEEE rounding is symmetric): both parts from one evaluation per vertex.
+      double fin[Poly::kMaxVertices], fout[Poly::kMaxVertices];
+      int below = 0, above = 0;
+      for (int k = 0; k < rest.n; ++k) {
+        const Vec2d& q = rest.v[size_t(k)];
+        fin[k] = n.x * q.x + n.y * q.y + c;
+        fout[k] = -fin[k];
+        below += fin[k] < 0;
+        above += fin[k] > 0;
+      }
+      // With fewer than 3 vertices on the line, one side's part is empty when no vertex lies
+      // strictly on that side, and the other's is then all of rest.
+      const bool few_on_line = rest.n - below - above < 3;
+      if (few_on_line && above == 0) continue;  // nothing outside this edge: rest stays
+      if (few_on_line && below == 0) {          // wholly outside: all of rest goes out
+        if (rest.area() > kSliver) out.push_back(rest);
+        break;
+      }
+      Poly part;
+      clipBy(rest, fout, part);
+      if (!part.empty() && part.area() > kSliver) out.push_back(part);
+      clipBy(rest, fin, part);
+      rest = part;
     }
   }
   if (out.size() > cap) {

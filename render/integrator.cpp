@@ -1109,6 +1109,33 @@ class Tracer {
 
   static bool parallel(Vec2f a, Vec2f b) { return std::fabs(dot(a, b)) >= 0.99939f; }
 
+  // A footprint at the tip of a scratch whose force fades out: the closest point of its path is
+  // the end, where the depth law leaves no cross-section (scale 0), yet the groove has depth a
+  // little way in, within the polygons' region. Moves ng's reference inward along the path to the
+  // first arc position, within `along` (uv), where the scale is positive, and returns that
+  // scale; the polygons then extend its cross-section linearly to the tip (Groove::rho). 0 where
+  // there is none (the footprint then goes to the blend, as before).
+  static float depthInward(const SurfacePoint& sp, float along, NearGroove& ng) {
+    const ScratchPath& path = ng.sc->path();
+    const double len = path.length();
+    const double dir = double(ng.pp.s) > 0.5 * len ? -1.0 : 1.0;
+    constexpr int kSteps = 16;
+    for (int j = 1; j <= kSteps; ++j) {
+      const double s = double(ng.pp.s) + dir * double(along) * j / kSteps;
+      if (!(s >= 0 && s <= len)) break;
+      const float k = ng.sc->scaleAt(float(s));
+      if (!(k > 0)) continue;
+      const Vec2d p = path.pointAt(s), t = path.tangentAt(s);
+      ng.pp.s = float(s);
+      ng.pp.point = Vec2f(float(p.x), float(p.y));
+      ng.pp.tangent = Vec2f(float(t.x), float(t.y));
+      const Vec2f e = sp.uv - ng.pp.point;
+      ng.pp.offset = -ng.pp.tangent.y * e.x + ng.pp.tangent.x * e.y;  // e . B, B = (-T.y, T.x)
+      return k;
+    }
+    return 0.0f;
+  }
+
   // The polygon surface of every groove near the footprint (crossings and ends, Bosch §4.2.4), in
   // the frame of near[ref]. False when it cannot be built (a degenerate footprint, or more grooves
   // or pieces than groove::area allows): the caller falls back.
@@ -1139,10 +1166,13 @@ class Tracer {
     grooves.clear();
     near_mm.clear();
     profiles.reserve(near.size());
+    // How far along a path a groove can still reach the region below (uv units).
+    const float along_uv = float((std::max(std::hypot(lo.x, lo.y), std::hypot(hi.x, hi.y)) +
+                                  std::max(double(view_reach), double(enlarge)) + 1e-3) / mm);
     for (size_t i = 0; i < near.size(); ++i) {
-      const NearGroove& ng = near[i];
+      NearGroove ng = near[i];
       float k = ng.sc->scaleAt(ng.pp.s);
-      if (!(k > 0)) continue;
+      if (!(k > 0) && !(k = depthInward(sp, along_uv, ng))) continue;
       Vec3f Ti, Bi, Wi;
       if (!grooveFrame(sp, ng.pp.tangent, Ti, Bi, Wi)) continue;
       profiles.push_back(surfaceProfile(ng, float(mm)));

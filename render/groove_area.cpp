@@ -315,7 +315,6 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   cache_keys_ = 0;
   walls_.clear();
   grooves_ = grooves;
-  constexpr size_t kMaxGrooves = 8;
   if (grooves.size() > kMaxGrooves) return false;
   struct Cell {
     Poly poly;

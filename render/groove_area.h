@@ -122,6 +122,8 @@ class Surface {
   // 20-65% more time there. Of the accuracy scenes only `star` and `dense` reach 600; no footprint
   // of the bench's scenes or of the example configs does.
   static constexpr size_t kMaxPieces = 1200;
+  // At most this many grooves per surface (the callers keep the nearest past it).
+  static constexpr size_t kMaxGrooves = 8;
 
   // Cuts `region` (convex, counter-clockwise) into pieces. False when there are more than 8
   // grooves, or the pieces of the surface, or those of its walls, would exceed kMaxPieces (the

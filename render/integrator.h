@@ -135,8 +135,9 @@ struct RenderStats {
   uint64_t rays = 0;         // all rays cast (closest-hit and occlusion)
   double seconds_shading = 0;
   // Camera samples whose footprint the groove renderer integrated: by 1-D sections (isolated and
-  // parallel grooves), by polygons (crossings and ends), or by the blend past the polygons' caps.
-  uint64_t groove_sections = 0, groove_polygons = 0, groove_fallbacks = 0;
+  // parallel grooves), by polygons (crossings and ends), and past the polygons' caps by polygons
+  // over the nearest grooves only (`trimmed`) or, past those too, by the blend (`fallbacks`).
+  uint64_t groove_sections = 0, groove_polygons = 0, groove_trimmed = 0, groove_fallbacks = 0;
   // Whether a primary ray of the mask pass (or, without one, through a pixel centre) meets the
   // part: false when the camera does not see the part at all (a camera looking past it).
   bool part_in_view = false;

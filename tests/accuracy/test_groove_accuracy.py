@@ -75,7 +75,8 @@ class GrooveAccuracy(unittest.TestCase):
         # No footprint of these scenes is past the polygons' caps. The ends' tips, where the force
         # fade leaves no cross-section at the closest point, are polygons too (until 2026-11-28
         # they went to the blend: 109 footprints on each ends scene).
-        self.assertEqual(footprints(tag + "_groove")["fallbacks"], 0)
+        used = footprints(tag + "_groove")
+        self.assertEqual((used["trimmed"], used["fallbacks"]), (0, 0))
 
     def test_crossing_ring_bowed(self):
         """The crossing layout on a curved part (groove_scenes.PARTS["bowed"]): the reference cuts
@@ -147,30 +148,31 @@ class GrooveAccuracy(unittest.TestCase):
         self.check("dense", "bar")
         used = footprints("dense_bar_groove")
         print("dense     bar   footprints %s" % used, flush=True)
-        self.assertEqual(used["fallbacks"], 0)
+        self.assertEqual((used["trimmed"], used["fallbacks"]), (0, 0))
         self.assertGreater(used["polygons"], 0)
 
     def test_star_past_the_polygon_caps(self):
-        """Twelve grooves through one spot: footprints with more than eight grooves fall back to
-        the blend of directions (docs/grooves.md) where a quarter of the shadow reach still holds
-        more than eight. Not one of the issue's target scenes; the bounds are regression bounds
-        (measured against geometry at 256 spp: 2026-11-25 1.53% of pixels >= 10, mean 0.91;
-        2026-11-26, with the smaller reaches, 0.71% and 0.66; with the cap of pieces at 1,200
-        instead of 600, 0.35% and 0.48, 709 footprints on the blend instead of 858; 2026-11-27,
-        after later changes to the sampling, 0.41% and 0.50, and 0.36-0.41% over noise seeds 0, 2
-        and 3; 2026-11-28, with the lobe choice stratified over the pixel, 0.32% and 0.49). Of the
-        709 footprints that then went to the blend, 659 were at the scratches' faded tips, which
-        the polygons now take (the same figures); 50 are past the caps."""
+        """Twelve grooves through one spot: footprints with more than eight grooves within a
+        quarter of the shadow reach are past the polygons' caps, and are integrated by polygons
+        over the eight (or six, or four) grooves nearest them (docs/grooves.md, "Cost bound and
+        fallback"). Not one of the issue's target scenes; the bounds are regression bounds
+        (measured against geometry at 256 spp, whose own noise against a second reference is
+        0.12% of pixels >= 10 and mean 0.45: 2026-11-25 1.53% and 0.91; 2026-11-26, with the
+        smaller reaches, 0.71% and 0.66; with the cap of pieces at 1,200 instead of 600, 0.35% and
+        0.48; 2026-11-28, with the lobe choice stratified over the pixel, 0.32% and 0.49, with 709
+        footprints on the blend, 659 of them at the scratches' faded tips (polygons since, the same
+        figures); the 50 past the caps on the nearest grooves instead of the blend: 0.13% and
+        0.43)."""
         ref = render("star_bar_ref", "star", "bar", "geometry", 256, noise_seed=1)
         grv = render("star_bar_groove", "star", "bar", "groove", 4)
         used = footprints("star_bar_groove")
         st = compare(ref, grv, "star_bar")
         print("star      bar   groove@4spp vs geometry@256spp: mean dE %.3f, %.3f%% of pixels >= 10; "
               "footprints %s" % (st["mean"], st["pct_ge_10"], used), flush=True)
-        self.assertGreater(used["fallbacks"], 0)
+        self.assertGreater(used["trimmed"], 0)
         self.assertGreater(used["polygons"], 0)
-        self.assertLess(st["pct_ge_10"], 0.6)
-        self.assertLess(st["mean"], 0.6)
+        self.assertLess(st["pct_ge_10"], 0.25)
+        self.assertLess(st["mean"], 0.5)
 
 
 def _make(layout, light):

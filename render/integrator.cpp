@@ -905,6 +905,7 @@ class Tracer {
     groove::area::Surface surface;
     bool surface_built = false;  // buildArea ran on `surface` (its buffers came from spareSurface)
     bool trimmed = false;        // `surface` holds only the grooves nearest the footprint (past the caps)
+    bool capped = false;         // buildArea failed at the caps (not for want of a groove in reach)
     groove::area::Poly fp2;
   };
 
@@ -1045,14 +1046,17 @@ class Tracer {
       }
       // An end inside the footprint: polygons, unless past their caps (then the end blend).
       if (sets.back().end_share < 1.0f) {
-        sets.back().area = st_.groove_polygons && buildArea(sp, near, ref, enlarge, view_reach, sets.back());
-        ++(!sets.back().area ? counts_.fallbacks : sets.back().trimmed ? counts_.trimmed : counts_.polygons);
+        GrooveSet& gs = sets.back();
+        gs.area = st_.groove_polygons && buildArea(sp, near, ref, enlarge, view_reach, gs);
+        ++(gs.area ? (gs.trimmed ? counts_.trimmed : counts_.polygons)
+                   : (!st_.groove_polygons || gs.capped ? counts_.fallbacks : counts_.sections));
       } else {
         ++counts_.sections;
       }
       return true;
     }
     // Crossings: polygons over all the grooves near the footprint.
+    bool capped = true;  // without polygons every crossing goes to the blend
     if (st_.groove_polygons) {
       sets.emplace_back();
       if (buildArea(sp, near, ref, enlarge, view_reach, sets.back())) {
@@ -1060,9 +1064,12 @@ class Tracer {
         ++(sets.back().trimmed ? counts_.trimmed : counts_.polygons);
         return true;
       }
+      capped = sets.back().capped;
       recycle(sets);
     }
-    ++counts_.fallbacks;
+    // The blend below; counted as a fallback where the polygons were past their caps, else with
+    // the sections (no groove had a cross-section within the polygons' region).
+    ++(capped ? counts_.fallbacks : counts_.sections);
     // Crossings: the share of the footprint where each direction's grooves are the lowest
     // surface (or, where no groove is below it, the highest pile-up), from a 4 x 4 grid of
     // points over the pixel footprint; points on the plain surface count for the reference.
@@ -1138,11 +1145,13 @@ class Tracer {
   }
 
   // The polygon surface of every groove near the footprint (crossings and ends, Bosch §4.2.4), in
-  // the frame of near[ref]. False when it cannot be built (a degenerate footprint, or more grooves
-  // or pieces than groove::area allows): the caller falls back.
+  // the frame of near[ref]. False when it cannot be built: a degenerate footprint, no groove with
+  // a cross-section within the region, or (gs.capped) more grooves or pieces than groove::area
+  // allows even for the nearest 4; the caller falls back.
   bool buildArea(const SurfacePoint& sp, const std::vector<NearGroove>& near, size_t ref, float enlarge,
                  float view_reach, GrooveSet& gs) const {
     namespace ga = groove::area;
+    gs.trimmed = gs.capped = false;
     if (!grooveFrame(sp, near[ref].pp.tangent, gs.T, gs.B, gs.W)) return false;
     gs.F = sp.p;
     gs.fp = footprintAcross(sp, gs.B);
@@ -1220,7 +1229,7 @@ class Tracer {
       region.push({lo.x - R, hi.y + R});
       return region;
     };
-    gs.trimmed = false;
+    bool tried = false;  // a build was refused at the caps
     double last = -1;
     for (double f : {1.0, 0.5, 0.25}) {
       const double R = std::max(double(view_reach), f * double(enlarge)) + 1e-3;
@@ -1229,7 +1238,9 @@ class Tracer {
       within.clear();
       for (size_t i = 0; i < grooves.size(); ++i)
         if (near_mm[i] <= R * std::sqrt(2.0) + fp_r) within.push_back(grooves[i]);
-      if (!within.empty() && gs.surface.build(square(R), within)) return true;
+      if (within.empty()) continue;
+      if (gs.surface.build(square(R), within)) return true;
+      tried = true;
     }
     // Past the caps at every reach (a dense cluster: more than 8 grooves within the smallest one,
     // or too many pieces): the polygons over the smallest region with only the grooves nearest the
@@ -1250,6 +1261,7 @@ class Tracer {
       for (size_t k = 0; k < n; ++k) within.push_back(grooves[order[k]]);
       if (gs.surface.build(square(last), within)) return gs.trimmed = true;
     }
+    gs.capped = tried;
     return false;
   }
 

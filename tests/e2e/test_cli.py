@@ -261,7 +261,14 @@ defects:
         sparse = head + """  - {type: scratch, count: 1, orientation_deg: 0, length_mm: 9, region: [0.49, 0.49, 0.51, 0.51]}
   - {type: scratch, count: 1, orientation_deg: 90, length_mm: 9, region: [0.49, 0.49, 0.51, 0.51]}
 """
-        for name, text in (("dense", dense), ("sparse", sparse)):
+        # Five short, light scratches (1 mm, 0.77 kg on HV 30, as the fuzzer's c12_9): their tips
+        # have no depth within the polygons' region. Such footprints go to the blend, but nothing
+        # was past a cap there; they counted as such until 2026-11-28, and were warned about.
+        tips = head.replace("resolution: [16, 16], spp: 1", "resolution: [32, 32], spp: 4").replace(
+            "fov_deg: 3", "fov_deg: 5") + """  - {type: scratch, count: 5, orientation_deg: {uniform: [0, 180]}, length_mm: 1.0, force_kg: 0.77,
+     hardness_hv: 30, region: [0.49, 0.49, 0.51, 0.51]}
+"""
+        for name, text in (("dense", dense), ("sparse", sparse), ("tips", tips)):
             with open(os.path.join(d, name + ".yaml"), "w") as f:
                 f.write(text)
         cfg = os.path.join(d, "dense.yaml")
@@ -286,6 +293,13 @@ defects:
         # The crossing pair: polygon footprints, none on the blend, no warning.
         out = os.path.join(d, "sparse")
         p = run("generate", os.path.join(d, "sparse.yaml"), "--out", out, "--count", "1", "--quiet")
+        self.assertNotIn("warning", p.stderr)
+        c = load_json(os.path.join(out, "manifest.json"))["last_run"]["timings"]["samples"][0]["groove_footprints"]
+        self.assertGreater(c["polygons"], 0)
+        self.assertEqual((c["trimmed"], c["fallbacks"]), (0, 0))
+        # The faded tips: polygons where they have depth in reach, else with the sections; no warning.
+        out = os.path.join(d, "tips")
+        p = run("generate", os.path.join(d, "tips.yaml"), "--out", out, "--count", "1", "--quiet")
         self.assertNotIn("warning", p.stderr)
         c = load_json(os.path.join(out, "manifest.json"))["last_run"]["timings"]["samples"][0]["groove_footprints"]
         self.assertGreater(c["polygons"], 0)

@@ -290,20 +290,15 @@ defects:
                          % (past, total, 100.0 * past / total, c["trimmed"], c["fallbacks"], cfg))
         self.assertEqual(warnings[1], "defectgen: warning: 2 of 2 rendered samples had 1% or more of their groove "
                          "footprints past the polygon caps")
-        # The crossing pair: polygon footprints, none on the blend, no warning.
-        out = os.path.join(d, "sparse")
-        p = run("generate", os.path.join(d, "sparse.yaml"), "--out", out, "--count", "1", "--quiet")
-        self.assertNotIn("warning", p.stderr)
-        c = load_json(os.path.join(out, "manifest.json"))["last_run"]["timings"]["samples"][0]["groove_footprints"]
-        self.assertGreater(c["polygons"], 0)
-        self.assertEqual((c["trimmed"], c["fallbacks"]), (0, 0))
-        # The faded tips: polygons where they have depth in reach, else with the sections; no warning.
-        out = os.path.join(d, "tips")
-        p = run("generate", os.path.join(d, "tips.yaml"), "--out", out, "--count", "1", "--quiet")
-        self.assertNotIn("warning", p.stderr)
-        c = load_json(os.path.join(out, "manifest.json"))["last_run"]["timings"]["samples"][0]["groove_footprints"]
-        self.assertGreater(c["polygons"], 0)
-        self.assertEqual((c["trimmed"], c["fallbacks"]), (0, 0))
+        # The crossing pair, and the faded tips (polygons where they have depth in reach, else with
+        # the sections): polygon footprints, none past the caps, no warning.
+        for name in ("sparse", "tips"):
+            out = os.path.join(d, name)
+            p = run("generate", os.path.join(d, name + ".yaml"), "--out", out, "--count", "1", "--quiet")
+            self.assertNotIn("warning", p.stderr, name)
+            c = load_json(os.path.join(out, "manifest.json"))["last_run"]["timings"]["samples"][0]["groove_footprints"]
+            self.assertGreater(c["polygons"], 0, name)
+            self.assertEqual((c["trimmed"], c["fallbacks"]), (0, 0), name)
 
     def test_a_dataset_grows_with_resume_and_a_larger_count(self):
         # A larger --count with --resume adds samples to a dataset: the folder then holds the same

@@ -1122,7 +1122,7 @@ class Tracer {
   // little way in, within the polygons' region. Moves ng's reference inward along the path to the
   // first arc position, within `along` (uv), where the scale is positive, and returns that
   // scale; the polygons then extend its cross-section linearly to the tip (Groove::rho). 0 where
-  // there is none (the footprint then goes to the blend, as before).
+  // there is none within `along`: nothing of that groove reaches the polygons' region.
   static float depthInward(const SurfacePoint& sp, float along, NearGroove& ng) {
     const ScratchPath& path = ng.sc->path();
     const double len = path.length();

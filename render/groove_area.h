@@ -127,7 +127,7 @@ class Surface {
 
   // Cuts `region` (convex, counter-clockwise) into pieces. False when there are more than 8
   // grooves, or the pieces of the surface, or those of its walls, would exceed kMaxPieces (the
-  // caller then tries a smaller region, and past that falls back to the blend).
+  // caller then tries a smaller region, then fewer grooves, and past that falls back to the blend).
   bool build(const Poly& region, const std::vector<Groove>& grooves);
   const std::vector<Piece>& pieces() const { return pieces_; }
 

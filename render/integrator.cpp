@@ -1209,7 +1209,7 @@ class Tracer {
     // The region whose surface can be seen, or can hide or shadow what is seen (§4.2.1): the
     // footprint's box enlarged by `enlarge`. Where its pieces pass the cap (many grooves close
     // together, cut pile-ups), the reach toward the lights is halved, then quartered, before the
-    // blend is used: a shadow cast from farther is lost, and a ray reflected out of the region
+    // nearest grooves alone (below) and the blend are used: a shadow cast from farther is lost, and a ray reflected out of the region
     // leaves the grooves, but the crossing itself is still integrated exactly. The reach toward
     // the viewer (`view_reach`) is always kept, so what hides the footprint is never lost. A
     // smaller region also leaves out the grooves that do not reach it (they add no piece), which

@@ -1209,11 +1209,11 @@ class Tracer {
     // The region whose surface can be seen, or can hide or shadow what is seen (§4.2.1): the
     // footprint's box enlarged by `enlarge`. Where its pieces pass the cap (many grooves close
     // together, cut pile-ups), the reach toward the lights is halved, then quartered, before the
-    // nearest grooves alone (below) and the blend are used: a shadow cast from farther is lost, and a ray reflected out of the region
-    // leaves the grooves, but the crossing itself is still integrated exactly. The reach toward
-    // the viewer (`view_reach`) is always kept, so what hides the footprint is never lost. A
-    // smaller region also leaves out the grooves that do not reach it (they add no piece), which
-    // counts for the cap of grooves per footprint. On the accuracy test's `dense` scene (6 + 6
+    // nearest grooves alone (below) and the blend are used: a shadow cast from farther is lost,
+    // and a ray reflected out of the region leaves the grooves, but the crossing itself is still
+    // integrated exactly. The reach toward the viewer (`view_reach`) is always kept, so what
+    // hides the footprint is never lost. A smaller region also leaves out the grooves that do not
+    // reach it (they add no piece), which counts for the cap of grooves per footprint. On the accuracy test's `dense` scene (6 + 6
     // crossing scratches under the bar light) no footprint falls back any more, and the pixels
     // >= 10 went from 2.27% to 0.02% (docs/grooves.md, "Cost bound and fallback").
     const double fp_r = std::max(std::hypot(lo.x, lo.y), std::hypot(hi.x, hi.y));

@@ -152,7 +152,6 @@ void subtract(std::vector<Poly>& frags, const Poly& s, size_t cap, size_t& dropp
       for (int k = 0; k < rest.n; ++k) {
         const Vec2d& q = rest.v[size_t(k)];
         fin[k] = n.x * q.x + n.y * q.y + c;
-        fout[k] = -fin[k];
         below += fin[k] < 0;
         above += fin[k] > 0;
       }
@@ -164,6 +163,7 @@ void subtract(std::vector<Poly>& frags, const Poly& s, size_t cap, size_t& dropp
         if (rest.area() > kSliver) out.push_back(rest);
         break;
       }
+      for (int k = 0; k < rest.n; ++k) fout[k] = -fin[k];
       Poly part;
       clipBy(rest, fout, part);
       if (!part.empty() && part.area() > kSliver) out.push_back(part);

@@ -1176,9 +1176,10 @@ class Tracer {
     grooves.clear();
     near_mm.clear();
     profiles.reserve(near.size());
-    // How far along a path a groove can still reach the region below (uv units).
-    const float along_uv = float((std::max(std::hypot(lo.x, lo.y), std::hypot(hi.x, hi.y)) +
-                                  std::max(double(view_reach), double(enlarge)) + 1e-3) / mm);
+    // The footprint's radius about its centre (mm), and how far along a path a groove can still
+    // reach the region below (uv units).
+    const double fp_r = std::max(std::hypot(lo.x, lo.y), std::hypot(hi.x, hi.y));
+    const float along_uv = float((fp_r + std::max(double(view_reach), double(enlarge)) + 1e-3) / mm);
     for (size_t i = 0; i < near.size(); ++i) {
       NearGroove ng = near[i];
       float k = ng.sc->scaleAt(ng.pp.s);
@@ -1213,10 +1214,10 @@ class Tracer {
     // and a ray reflected out of the region leaves the grooves, but the crossing itself is still
     // integrated exactly. The reach toward the viewer (`view_reach`) is always kept, so what
     // hides the footprint is never lost. A smaller region also leaves out the grooves that do not
-    // reach it (they add no piece), which counts for the cap of grooves per footprint. On the accuracy test's `dense` scene (6 + 6
-    // crossing scratches under the bar light) no footprint falls back any more, and the pixels
-    // >= 10 went from 2.27% to 0.02% (docs/grooves.md, "Cost bound and fallback").
-    const double fp_r = std::max(std::hypot(lo.x, lo.y), std::hypot(hi.x, hi.y));
+    // reach it (they add no piece), which counts for the cap of grooves per footprint. On the
+    // accuracy test's `dense` scene (6 + 6 crossing scratches under the bar light) no footprint
+    // falls back any more, and the pixels >= 10 went from 2.27% to 0.02% (docs/grooves.md, "Cost
+    // bound and fallback").
     if (!gs.surface_built) {
       std::swap(gs.surface, spareSurface());
       gs.surface_built = true;

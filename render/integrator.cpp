@@ -2001,7 +2001,8 @@ class Tracer {
   }
 
   // Coverage of each scratch's visible facets in the pixel footprint (for the masks): per scratch,
-  // its own section alone seen from the camera, the weight of its non-flat facets.
+  // its own section alone seen from the camera, the weight of its non-flat facets, times the share
+  // of the footprint's length along the path that lies between the scratch's ends.
   void scratchCoverage(const SurfacePoint& sp, const Hit& h, Vec3f wo_w, std::vector<float>& cov) const {
     if (!outerSide(h, wo_w)) return;
     thread_local std::vector<NearGroove> near;
@@ -2009,8 +2010,12 @@ class Tracer {
     for (const NearGroove& ng : near) {
       Vec3f T, B, W;
       if (!grooveFrame(sp, ng.pp.tangent, T, B, W)) continue;
+      // Where the closest point is an end, its scale is the end's: 0 at a faded tip (no groove
+      // there), the full scale at a blunt one (fade_mm 0), whose groove stops at the end line.
       float k = ng.sc->scaleAt(ng.pp.s);
-      if (!(k > 0) || ng.pp.beyond > 0) continue;
+      if (!(k > 0)) continue;
+      const float share = endShare(sp, T, ng);
+      if (!(share > 0)) continue;
       Profile p = surfaceProfile(ng, sp.mm_per_uv);
       groove::PlacedProfile pl;
       pl.pts = &p.pts;
@@ -2027,8 +2032,25 @@ class Tracer {
         if (!flat && a.x >= lo - 1e-12 && b.x <= hi + 1e-12) c += float(por.weight);
       }
       uint16_t id = ng.sc->instanceId();
-      if (id < cov.size()) cov[id] = std::max(cov[id], c);
+      if (id < cov.size()) cov[id] = std::max(cov[id], c * share);
     }
+  }
+
+  // The share of the pixel footprint's length along the path (its extent along T about its
+  // centre, a box) that lies between the scratch's ends. 1 away from the ends; at a blunt end it
+  // takes the pixels that the end line cuts to their covered share (a pixel whose centre lies just
+  // past the end, whose coverage would otherwise be 0, and one just before it, which would count
+  // whole), so that a mask ends where the groove does.
+  static float endShare(const SurfacePoint& sp, Vec3f T, const NearGroove& ng) {
+    const double mm = sp.mm_per_uv;
+    const double half_t = 0.5 * (std::fabs(double(dot(sp.dpdx, T))) + std::fabs(double(dot(sp.dpdy, T))));
+    const double len = ng.sc->path().length() * mm;
+    // The footprint's centre along the path (mm from the start; past an end, beyond it).
+    double x = double(ng.pp.s) * mm;
+    if (ng.pp.beyond > 0) x = ng.pp.s > 0 ? len + double(ng.pp.beyond) * mm : -double(ng.pp.beyond) * mm;
+    if (!(half_t > 0)) return x >= 0 && x <= len ? 1.0f : 0.0f;
+    const double in = std::min(x + half_t, len) - std::max(x - half_t, 0.0);
+    return float(std::clamp(in / (2 * half_t), 0.0, 1.0));
   }
 
   // Groove footprints by method (RenderStats), counted per thread and taken at each tile's end.

@@ -285,6 +285,49 @@ TEST(Render, AGivenPathIsPlacedTurnedAndMasked) {
   EXPECT_LT(bz.length(), std::hypot(20.0, 30.0) + std::hypot(20.0, 40.0) + std::hypot(20.0, 30.0));
 }
 
+// A blunt scratch (fade_mm 0) stops at its end line, and its mask ends there too: a pixel that the
+// end line cuts has the covered share of its length as coverage, whether its centre lies before the
+// end or past it. Head-on at 2 px per mm, pixel x covers [x - 0.5, x + 0.5] and u maps to
+// 127.5 + 2 (u - 150); the path runs from pixel position 100.2 to 159.8, so pixels 100 and 160 hold
+// 0.3 of a pixel of groove (labelled: at least 0.1) and 99 and 161 none. A second scratch, from
+// 100.45 to 159.55, leaves 0.05 in pixels 100 and 159 (not labelled).
+TEST(Render, ABluntScratchsMaskEndsWhereItsGrooveDoes) {
+  const int res = 256;
+  auto cfg = [&](double x0, double x1) {
+    auto u = [](double px) { return std::to_string((px - 127.5) / 2); };
+    return plateConfig("defects:\n  - type: scratch\n    pattern: path\n    center: [0.5, 0.5]\n    force_kg: 3\n"
+                       "    fade_mm: 0\n    perturbation: 0\n    path_mm: [" + u(x0) + ", 0.3, " + u(x1) + ", 0.3]\n",
+                       res, 1);
+  };
+  for (auto [x0, x1, first, last, share] : {std::tuple{100.2, 159.8, 100, 160, 0.3}, std::tuple{100.45, 159.55, 101, 159, 0.05}}) {
+    SCOPED_TRACE(testing::Message() << "from " << x0 << " to " << x1);
+    RenderFrame f = renderConfig(cfg(x0, x1), false, true);
+    // The path's row is 127 (v = 100.3: y = 126.9); the groove spreads over the rows beside it.
+    auto column = [&](int x) {
+      double c = 0;
+      for (int y = 120; y < 135; ++y) c += f.coverage(x, y);
+      return c;
+    };
+    auto labelled = [&](int x) {
+      for (int y = 120; y < 135; ++y)
+        if (f.dominant(x, y) == 1 && f.coverage(x, y) >= kScratchMaskCoverage) return true;
+      return false;
+    };
+    const double whole = column(128);
+    ASSERT_GT(whole, 0.3);
+    int lo = res, hi = -1;
+    for (int x = 0; x < res; ++x)
+      if (labelled(x)) lo = std::min(lo, x), hi = std::max(hi, x);
+    EXPECT_EQ(lo, first);
+    EXPECT_EQ(hi, last);
+    // The end pixels' coverage is their covered share of the middle's.
+    EXPECT_NEAR(column(int(std::floor(x0 + 0.5))) / whole, share, 0.03);
+    EXPECT_NEAR(column(int(std::floor(x1 + 0.5))) / whole, share, 0.03);
+    EXPECT_EQ(column(int(std::floor(x0 + 0.5)) - 1), 0.0);
+    EXPECT_EQ(column(int(std::floor(x1 + 0.5)) + 1), 0.0);
+  }
+}
+
 // Groove shading takes groove_light_samples stratified samples per light at every camera hit. Any
 // count must give the same image on average, squares (a q x q grid) or not (strata along one
 // axis): a count whose grid missed strata would leave part of the light out. A Lambert plate

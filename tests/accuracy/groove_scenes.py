@@ -63,6 +63,17 @@ LAYOUTS = {
     fade_mm: 0.6
     region: [0.43, 0.43, 0.57, 0.57]
 """,
+    # The same five with blunt ends (no fade): each groove stops at full depth at its end line.
+    "blunt": """
+  - type: scratch
+    count: 5
+    length_mm: {uniform: [2, 3.5]}
+    orientation_deg: {uniform: [-30, 30]}
+    force_kg: 2
+    hardness_hv: 30
+    fade_mm: 0
+    region: [0.43, 0.43, 0.57, 0.57]
+""",
     # Three parallel scratches side by side (0.17 mm wide with their pile-ups), 0.12 and 0.08 mm
     # apart: their pile-ups overlap, and the outer two cut into the middle one's. Both renderers
     # must build the same composite surface (docs/grooves.md, "Merge").

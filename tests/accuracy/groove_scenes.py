@@ -63,17 +63,6 @@ LAYOUTS = {
     fade_mm: 0.6
     region: [0.43, 0.43, 0.57, 0.57]
 """,
-    # The same five with blunt ends (no fade): each groove stops at full depth at its end line.
-    "blunt": """
-  - type: scratch
-    count: 5
-    length_mm: {uniform: [2, 3.5]}
-    orientation_deg: {uniform: [-30, 30]}
-    force_kg: 2
-    hardness_hv: 30
-    fade_mm: 0
-    region: [0.43, 0.43, 0.57, 0.57]
-""",
     # Three parallel scratches side by side (0.17 mm wide with their pile-ups), 0.12 and 0.08 mm
     # apart: their pile-ups overlap, and the outer two cut into the middle one's. Both renderers
     # must build the same composite surface (docs/grooves.md, "Merge").
@@ -176,6 +165,9 @@ LAYOUTS = {
     region: [0.2, 0.2, 0.8, 0.8]
 """,
 }
+# The ends layout's five scratches with blunt ends (no fade): each groove stops at full depth at its
+# end line.
+LAYOUTS["blunt"] = LAYOUTS["ends"].replace("fade_mm: 0.6", "fade_mm: 0")
 
 LIGHTS = {
     # Bright field through a glass part: a 12 x 12 mm panel 50 mm below the plate, facing up, which

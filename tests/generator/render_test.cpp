@@ -288,9 +288,10 @@ TEST(Render, AGivenPathIsPlacedTurnedAndMasked) {
 // A blunt scratch (fade_mm 0) stops at its end line, and its mask ends there too: a pixel that the
 // end line cuts has the covered share of its length as coverage, whether its centre lies before the
 // end or past it. Head-on at 2 px per mm, pixel x covers [x - 0.5, x + 0.5] and u maps to
-// 127.5 + 2 (u - 150); the path runs from pixel position 100.2 to 159.8, so pixels 100 and 160 hold
-// 0.3 of a pixel of groove (labelled: at least 0.1) and 99 and 161 none. A second scratch, from
-// 100.45 to 159.55, leaves 0.05 in pixels 100 and 159 (not labelled).
+// 127.5 + 2 (u - 150); a path from pixel position 100.2 to 159.8 leaves 0.3 of a pixel of groove in
+// pixels 100 and 160 (labelled: at least 0.1) and none in 99 and 161. One from 100.45 to 159.55
+// leaves 0.05 in pixels 100 and 160 (not labelled). With the centre's side of the end line alone,
+// the first was labelled from 101 to 159 and the second's end pixels had coverage 0.
 TEST(Render, ABluntScratchsMaskEndsWhereItsGrooveDoes) {
   const int res = 256;
   auto cfg = [&](double x0, double x1) {
@@ -299,7 +300,8 @@ TEST(Render, ABluntScratchsMaskEndsWhereItsGrooveDoes) {
                        "    fade_mm: 0\n    perturbation: 0\n    path_mm: [" + u(x0) + ", 0.3, " + u(x1) + ", 0.3]\n",
                        res, 1);
   };
-  for (auto [x0, x1, first, last, share] : {std::tuple{100.2, 159.8, 100, 160, 0.3}, std::tuple{100.45, 159.55, 101, 159, 0.05}}) {
+  for (auto [x0, x1, first, last, share] :
+       {std::tuple{100.2, 159.8, 100, 160, 0.3}, std::tuple{100.45, 159.55, 101, 159, 0.05}}) {
     SCOPED_TRACE(testing::Message() << "from " << x0 << " to " << x1);
     RenderFrame f = renderConfig(cfg(x0, x1), false, true);
     // The path's row is 127 (v = 100.3: y = 126.9); the groove spreads over the rows beside it.

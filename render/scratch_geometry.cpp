@@ -411,9 +411,15 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
         PathPoint pp = sc->path().closest(p, reach);
         float kk = pp.found ? sc->scaleAt(pp.s) : 0.0f;
         const std::vector<Vec2d>& pts = sc->referenceProfile().pts;
+        // Past an abrupt end (scale > 0 there) the kink lines run on along the end's tangent, so
+        // that a piece across the end line is cut along them on both sides before the end line
+        // cuts it. (Until 2026-11-28 they were undefined past the end: such a piece was not cut
+        // exactly, and the end's cell kept a facet across kinks, a bright column one cell wide at
+        // a blunt end's pile-up under the bar light that finer cells narrowed. Past a faded end
+        // the scale is 0 and there is nothing to cut.)
         for (size_t i = 0; i < pts.size(); ++i)
           if (kinks[k][i])
-            f.push_back(pp.found && pp.beyond <= 0 && kk > 0 ? double(pp.offset) - double(kk) * pts[i].x : std::nan(""));
+            f.push_back(pp.found && kk > 0 ? double(pp.offset) - double(kk) * pts[i].x : std::nan(""));
         // An abrupt end's line (across the end tangent, where the height drops to 0), near that end.
         for (int e = 0; e < 2; ++e) {
           const End& en = ends[k][e];

@@ -83,7 +83,7 @@ TEST(ScratchGeometry, VerticesFollowTheCrossSectionAndNormalsAreTheFacets) {
   size_t wall = 0;
   double wall_area = 0;
   for (size_t t = 0; t < m.triangleCount(); ++t) {
-    // Away from the blunt ends, where the groove's end face becomes a ramp one cell long.
+    // Away from the blunt ends, where the end walls stand (ABluntEndIsCutAlongItsFacetsUpToTheEndLine).
     Vec2f cu = (m.uvs[m.indices[3 * t]] + m.uvs[m.indices[3 * t + 1]] + m.uvs[m.indices[3 * t + 2]]) / 3.0f;
     if (cu.x < 6 || cu.x > 14) continue;
     Vec3f n = m.normals[m.indices[3 * t]];
@@ -439,6 +439,44 @@ TEST(ScratchGeometry, CurvedPartsAreCutAlongTheSurfaceNormal) {
 // the mesh has vertical walls, so it is the height field itself: rays cast at it hit where rays
 // marched through the height field stop, also rays that meet a wall. Without the walls (each side's
 // facets ramped into the other's over one cell), rays near the jumps stop early or late.
+// A blunt end (no fade) is cut along the cross-section's kinks up to its end line: every triangle of
+// its end cells lies on one facet of the profile, on the plate, or on an end wall. Until 2026-11-28
+// the kinks were undefined past the end line, so a cell across it kept pieces that spanned two
+// facets (normals between theirs): at the pile-up's end under a low bar light, a bright column one
+// cell wide, which finer cells narrowed (docs/grooves.md, "Reference and baseline").
+TEST(ScratchGeometry, ABluntEndIsCutAlongItsFacetsUpToTheEndLine) {
+  TriangleMesh plate = plate20();
+  const Profile prof = pileUpProfile();
+  // Oblique, so that the end line and the kinks cross the cells at an angle.
+  const Vec2d a(5.0, 6.0), b(15.0, 13.0);
+  Scratch s = Scratch::fromProfile(ScratchPath::polyline({a, b}), prof);
+  std::vector<const Scratch*> list{&s};
+  TriangleMesh m = scratchedMesh(plate, list);
+  // The plate's normal; each facet's normal makes the angle atan(slope) with it.
+  std::vector<double> allowed{1.0};
+  for (size_t i = 0; i + 1 < prof.pts.size(); ++i) {
+    const double slope = (prof.pts[i + 1].y - prof.pts[i].y) / (prof.pts[i + 1].x - prof.pts[i].x);
+    allowed.push_back(1 / std::sqrt(1 + slope * slope));
+  }
+  const double L = std::hypot(b.x - a.x, b.y - a.y);
+  size_t near_end = 0, off = 0;
+  for (size_t t = 0; t < m.triangleCount(); ++t) {
+    const Vec2f c = (m.uvs[m.indices[3 * t]] + m.uvs[m.indices[3 * t + 1]] + m.uvs[m.indices[3 * t + 2]]) / 3.0f;
+    const double along = ((c.x - a.x) * (b.x - a.x) + (c.y - a.y) * (b.y - a.y)) / L;
+    if (std::fabs(along) > 0.1 && std::fabs(along - L) > 0.1) continue;
+    const Vec3f g = cross(m.positions[m.indices[3 * t + 1]] - m.positions[m.indices[3 * t]],
+                          m.positions[m.indices[3 * t + 2]] - m.positions[m.indices[3 * t]]);
+    if (!(length(g) > 1e-12f)) continue;
+    ++near_end;
+    const double cz = std::fabs(double(g.z) / double(length(g)));
+    bool ok = cz < 0.05;  // an end wall (steep: its top leans back by 1/1000 of its height)
+    for (double c : allowed) ok |= std::fabs(cz - c) < 1e-3;
+    off += !ok;
+  }
+  EXPECT_GT(near_end, 200u);
+  EXPECT_EQ(off, 0u) << "of " << near_end << " triangles near the ends";
+}
+
 TEST(ScratchGeometry, JumpsBecomeWallsAndRaysHitTheHeightField) {
   PlateParams pp;
   pp.width_mm = 4;

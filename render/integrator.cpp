@@ -1232,13 +1232,18 @@ class Tracer {
     };
     bool tried = false;  // a build was refused at the caps
     double last = -1;
+    thread_local std::vector<size_t> order;  // the grooves within the last reach tried
     for (double f : {1.0, 0.5, 0.25}) {
       const double R = std::max(double(view_reach), f * double(enlarge)) + 1e-3;
       if (R == last) continue;
       last = R;
+      order.clear();
       within.clear();
       for (size_t i = 0; i < grooves.size(); ++i)
-        if (near_mm[i] <= R * std::sqrt(2.0) + fp_r) within.push_back(grooves[i]);
+        if (near_mm[i] <= R * std::sqrt(2.0) + fp_r) {
+          order.push_back(i);
+          within.push_back(grooves[i]);
+        }
       if (within.empty()) continue;
       if (gs.surface.build(square(R), within)) return true;
       tried = true;
@@ -1251,10 +1256,6 @@ class Tracer {
     // which keeps at most three directions and no shadows between grooves (on the fuzzer's
     // cluster c10_15, 8.8% of its footprints past the caps: 5.2% of pixels >= 10 with the blend,
     // 0.69% this way, for 1.3 times the time; docs/grooves.md, "Cost bound and fallback").
-    thread_local std::vector<size_t> order;
-    order.clear();
-    for (size_t i = 0; i < grooves.size(); ++i)
-      if (near_mm[i] <= last * std::sqrt(2.0) + fp_r) order.push_back(i);
     std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return near_mm[a] < near_mm[b]; });
     for (size_t n : {ga::Surface::kMaxGrooves, size_t(6), size_t(4)}) {
       if (n >= order.size()) continue;  // as many as that were tried above

@@ -208,8 +208,7 @@ class FootprintsPastCaps {
   FootprintsPastCaps(const Config& cfg, const Progress& prog) : file_(cfg.file), prog_(prog) {}
 
   void check(uint64_t i, const RenderStats& st) {
-    const uint64_t past = st.groove_trimmed + st.groove_fallbacks;
-    const uint64_t all = st.groove_sections + st.groove_polygons + past;
+    const uint64_t past = st.groove_trimmed + st.groove_fallbacks, all = st.grooveFootprints();
     if (past == 0 || past * 100 < all || ++count_ > 1) return;
     char share[32];
     std::snprintf(share, sizeof share, "%.1f%%", 100.0 * double(past) / double(all));
@@ -591,7 +590,7 @@ GenerateResult runGenerate(const GenerateOptions& o) {
       double rs = secondsSince(t0) + (was_kept ? kept_build_s : 0.0);
       render_total += rs;
       t = {{"index", i}, {"render_s", rs}, {"rays", f.stats.rays}};
-      if (f.stats.groove_sections + f.stats.groove_polygons + f.stats.groove_trimmed + f.stats.groove_fallbacks > 0)
+      if (f.stats.grooveFootprints() > 0)
         t["groove_footprints"] = {{"sections", f.stats.groove_sections},
                                   {"polygons", f.stats.groove_polygons},
                                   {"trimmed", f.stats.groove_trimmed},

@@ -138,6 +138,7 @@ struct RenderStats {
   // parallel grooves), by polygons (crossings and ends), and past the polygons' caps by polygons
   // over the nearest grooves only (`trimmed`) or, past those too, by the blend (`fallbacks`).
   uint64_t groove_sections = 0, groove_polygons = 0, groove_trimmed = 0, groove_fallbacks = 0;
+  uint64_t grooveFootprints() const { return groove_sections + groove_polygons + groove_trimmed + groove_fallbacks; }
   // Whether a primary ray of the mask pass (or, without one, through a pixel centre) meets the
   // part: false when the camera does not see the part at all (a camera looking past it).
   bool part_in_view = false;

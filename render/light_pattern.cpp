@@ -19,11 +19,14 @@ double tent(double u) { return 1.0 - std::fabs(2.0 * u - 1.0); }
 // In [0, 1) also after rounding to float.
 float below1(double u) { return std::min(float(u), 0x1.fffffep-1f); }
 
-// p = 0, 1, ..., n - 1 in a random order (Fisher-Yates, one draw per position from the top).
-void shuffledRange(std::vector<int>& p, size_t n, Rng& rng) {
-  p.resize(n);
+// p[0..n) = 0, 1, ..., n - 1 in a random order (Fisher-Yates, one draw per position from the top).
+void shuffledRange(int* p, size_t n, Rng& rng) {
   for (size_t i = 0; i < n; ++i) p[i] = int(i);
   for (size_t i = n; i-- > 1;) std::swap(p[i], p[rng.next32() % uint32_t(i + 1)]);
+}
+void shuffledRange(std::vector<int>& p, size_t n, Rng& rng) {
+  p.resize(n);
+  shuffledRange(p.data(), n, rng);
 }
 
 // latticeGenerator's search (its contract in light_pattern.h).
@@ -101,21 +104,16 @@ void PixelPattern::reset(int spp, int g, int dims, Rng& rng) {
   sets_[0].nl = sets_[1].nl = 0;
   nd_ = 0;
   dims_.clear();
+  perm_.resize(size_t(dims) * size_t(n_));
   for (int d = 0; d < dims; ++d) {
-    LightPattern pat(n_, g, rng);
-    int a = 1;
-    if (n_ > 2)
-      do a = 1 + int(rng.next32() % uint32_t(n_ - 1));
-      while (std::gcd(a, n_) != 1);
-    const int b = int(rng.next32() % uint32_t(n_));
-    dims_.push_back({pat, a, b});
+    dims_.emplace_back(n_, g, rng);
+    shuffledRange(perm_.data() + size_t(d) * size_t(n_), size_t(n_), rng);
   }
   shuffledRange(lobe1_, size_t(n_), rng);
 }
 
 Vec2f PixelPattern::at(int d, int s, bool periodic_y) const {
-  const Dim& q = dims_[size_t(d)];
-  return q.pat.at(int((int64_t(q.a) * s + q.b) % n_), periodic_y);
+  return dims_[size_t(d)].at(perm_[size_t(d) * size_t(n_) + size_t(s)], periodic_y);
 }
 
 void PixelPattern::resetLights(int lights, int nl, int g, Rng& rng) {

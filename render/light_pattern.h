@@ -48,12 +48,16 @@ class LightPattern {
 };
 
 // The first bounce's sample dimensions of one pixel's spp camera samples, spread over those
-// samples: dimension d (a light, or the BSDF direction) of camera sample s is point pi_d(s) of its
-// own shifted lattice of spp points, where pi_d(s) = (a_d s + b_d) mod spp is a random affine
-// permutation that keeps the dimensions from moving in step ("padding", Kollig & Keller 2002,
-// "Efficient multidimensional sampling"). Each point alone is uniform, so every camera sample
+// samples: dimension d (a light, the BSDF direction, the position in the pixel) of camera sample s
+// is point pi_d(s) of its own shifted lattice of spp points, pi_d a random permutation per
+// dimension and pixel that keeps the dimensions from moving in step ("padding", Kollig & Keller
+// 2002, "Efficient multidimensional sampling"). Each point alone is uniform, so every camera sample
 // stays an unbiased estimate; together the pixel's samples cover each light and the BSDF's
-// directions evenly.
+// directions evenly. The permutations were affine, (a_d s + b_d) mod spp, until 2026-11-28: two
+// dimensions paired so are again a 2-D lattice, for some pixels one with all its points on a few
+// lines, and a pixel whose value follows a sum of two dimensions (a shadow edge that moves with
+// the position in the pixel and on the light) then took 0, 1/2 or 1 of its samples wherever the
+// edge lay (PixelPattern.TwoDimensionsTogetherFollowTheAreaBelowALine).
 class PixelPattern {
  public:
   // spp points (generator g = latticeGenerator(spp)) in `dims` dimensions; draws from rng.
@@ -89,10 +93,6 @@ class PixelPattern {
   float lobe(int j, int s, float jitter) const { return stratum(lobes_, size_t(j * n_ + s), jitter); }
 
  private:
-  struct Dim {
-    LightPattern pat;
-    int a, b;
-  };
   // Point i of Latin strata p (a permutation of the strata): its stratum, `jitter` within it.
   static float stratum(const std::vector<int>& p, size_t i, float jitter) {
     return std::min((float(p[i]) + jitter) / float(p.size()), kOneMinusEps);
@@ -102,7 +102,8 @@ class PixelPattern {
     std::vector<LightPattern> lights;
   };
   int n_ = 1, nd_ = 0;
-  std::vector<Dim> dims_;
+  std::vector<LightPattern> dims_;  // one lattice per dimension
+  std::vector<int> perm_;           // dimension d's order: perm_[d * n_ + s] for camera sample s
   LightSet sets_[2];
   std::vector<LightPattern> dirs_;  // one pattern after resetDirections
   std::vector<int> lobes_;          // the lobe strata of the pixel's directions

@@ -677,4 +677,13 @@ Scatter scatter(const Section& s, const Portion& p, const Footprint& fp, Vec2d d
   return out;
 }
 
+Scatter scatterInside(const Section& s, const Portion& p, const Footprint& fp, Vec2d d_bw) {
+  thread_local Section m;
+  m.pts = s.pts;
+  for (Vec2d& q : m.pts) q.y = -q.y;
+  m.layer = s.layer;
+  m.tilt.clear();
+  return scatter(m, p, fp, Vec2d(d_bw.x, -d_bw.y));
+}
+
 }  // namespace dg::groove

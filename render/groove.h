@@ -133,6 +133,13 @@ struct Scatter {
 };
 Scatter scatter(const Section& s, const Portion& p, const Footprint& fp, Vec2d d_bw);
 
+// The same for rays that leave portion p into the solid below the section (a glass part's
+// refraction, dot(d, normal) < 0): the facets they meet again from inside (hits, on the facets'
+// solid side) and the share that goes on down into the solid without meeting one (`escaped`).
+// The solid seen upside down is the open side of the section mirrored in w (w -> -w: the order
+// of the points, the facets' indices and parameters stay), so this is scatter() there.
+Scatter scatterInside(const Section& s, const Portion& p, const Footprint& fp, Vec2d d_bw);
+
 // The point of facet k at parameter t.
 Vec2d pointOn(const Section& s, int k, double t);
 

@@ -165,6 +165,18 @@ LAYOUTS = {
     region: [0.2, 0.2, 0.8, 0.8]
 """,
 }
+# Six parallel scratches so deep and wide (about 0.05 and 0.24 mm) and so close (within 0.6 mm)
+# that they merge into one band of pile-ups and walls (the fuzzer's c16_18): on glass, light
+# refracted into one pile-up's ridge meets the section again from inside.
+LAYOUTS["band"] = """
+  - type: scratch
+    count: 6
+    orientation_deg: 41
+    length_mm: 5.7
+    force_kg: 2.31
+    hardness_hv: 20
+    region: [0.4779, 0.4763, 0.5087, 0.5071]
+"""
 # The ends layout's five scratches with blunt ends (no fade): each groove stops at full depth at its
 # end line.
 LAYOUTS["blunt"] = LAYOUTS["ends"].replace("fade_mm: 0.6", "fade_mm: 0")

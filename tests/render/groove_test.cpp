@@ -548,6 +548,78 @@ TEST(Groove, ScatterMatchesBruteForce) {
   EXPECT_GT(hits_seen, 1000);  // the random cases do exercise inter-reflection
 }
 
+// scatterInside(): rays refracted into a glass part meet the section again from inside.
+TEST(Groove, ScatterInsideCrossesAPileUpsRidge) {
+  const Prof ridge{{{-0.5, 0}, {0, 0.5}, {0.5, 0}}, {0, 0}};
+  const Section s = single(ridge, 0, 4);
+  const Footprint fp{3, 0};
+  const Portion* left = nullptr;
+  const std::vector<Portion> vis = visible(s, {0, 1}, fp);
+  for (const Portion& p : vis)
+    if (p.facet == 1) left = &p;
+  ASSERT_NE(left, nullptr);
+  // Level through the ridge: (-0.5 + 0.5 t, 0.5 t) leaves by (0.5 (1 - t), 0.5 t) on the far side.
+  const Scatter across = scatterInside(s, *left, fp, {1, 0});
+  EXPECT_EQ(across.escaped, 0.0);
+  ASSERT_EQ(across.hits.size(), 1u);
+  EXPECT_EQ(across.hits[0].facet, 2);
+  EXPECT_NEAR(across.hits[0].t0, 1 - left->t1, 1e-14);
+  EXPECT_NEAR(across.hits[0].t1, 1 - left->t0, 1e-14);
+  EXPECT_NEAR(across.hits[0].weight, left->weight, 1e-15);
+  // Straight down it meets nothing again; out of the facet into the air is not scatterInside's.
+  const Scatter down = scatterInside(s, *left, fp, {0, -1});
+  EXPECT_TRUE(down.hits.empty());
+  EXPECT_NEAR(down.escaped, left->weight, 1e-15);
+  const Scatter out = scatterInside(s, *left, fp, {-1, 0});
+  EXPECT_TRUE(out.hits.empty());
+  EXPECT_EQ(out.escaped, 0.0);
+}
+
+TEST(Groove, ScatterInsideMatchesBruteForce) {
+  Rand rnd(16);
+  const int n = 2000;
+  int hits_seen = 0;
+  for (int c = 0; c < 150; ++c) {
+    const Footprint fp = randomFootprint(rnd);
+    const Scene sc = randomScene(rnd, fp);
+    const Vec2d e = randomView(rnd);
+    for (const Portion& p : visible(sc.sec, e, fp)) {
+      const Vec2d nrm = sc.sec.normal(size_t(p.facet));
+      Vec2d d = unitAngle(rnd(-3.1, 3.1));
+      if (dot(d, nrm) >= 0) d = d * -1.0;  // into the solid
+      if (!(dot(d, nrm) < -1e-9)) continue;
+      const Scatter s = scatterInside(sc.sec, p, fp, d);
+      double sum = s.escaped;
+      std::map<int, double> got;
+      for (const Portion& h : s.hits) {
+        sum += h.weight;
+        got[h.facet] += h.weight;
+        // Met from inside: the rays leave through the facets they hit.
+        EXPECT_GT(dot(d, sc.sec.normal(size_t(h.facet))), -1e-12);
+      }
+      EXPECT_NEAR(sum, p.weight, 1e-12);
+      // Brute force on the section itself: the first facet a ray from the portion crosses.
+      std::map<int, double> brute;
+      double all = 0;
+      for (int i = 0; i < n; ++i) {
+        const double t = p.t0 + (p.t1 - p.t0) * (i + 0.5) / n;
+        const double w = density(fp, p.xAt(t));
+        all += w;
+        const int k = castRay(sc.sec, pointOn(sc.sec, p.facet, t), d, p.facet);
+        brute[k] += w;
+        hits_seen += k >= 0 && w > 0;
+      }
+      if (!(all > 0)) continue;
+      for (auto& kv : brute) {
+        const double expect = p.weight * kv.second / all;
+        const double have = kv.first < 0 ? s.escaped : got[kv.first];
+        EXPECT_NEAR(have, expect, 2e-3 * std::max(1.0, p.weight)) << "case " << c << " facet " << kv.first;
+      }
+    }
+  }
+  EXPECT_GT(hits_seen, 1000);  // rays do meet the section again from inside
+}
+
 TEST(Groove, PointFootprintLightAndScatter) {
   // With a point footprint the seen portion is a single point carrying weight 1: it is lit or not
   // as a whole, and one ray carries its reflection.

@@ -483,6 +483,55 @@ TEST(Groove, ScatterRightAngleVGrooveReflectsAcross) {
   EXPECT_NEAR(up.escaped, left->weight, 1e-15);
 }
 
+// Checks a scatter result s of the rays leaving portion p in direction d against n rays cast one
+// by one (castRay): the shares per facet hit and escaped, and that every hit point lies in a
+// returned portion mapping it back to the footprint coordinate its ray started from. `facing`:
+// the sign of dot(d, normal) that hit facets show (-1 met from outside, +1 from inside). Returns
+// the number of rays that hit a facet.
+int expectLikeCastRays(const Section& sec, const Portion& p, const Footprint& fp, Vec2d d, const Scatter& s,
+                       double facing, int n, int c) {
+  int hits_seen = 0;
+  double sum = s.escaped;
+  std::map<int, double> got;
+  for (const Portion& h : s.hits) {
+    sum += h.weight;
+    got[h.facet] += h.weight;
+    EXPECT_LE(0.0, h.t0);
+    EXPECT_LE(h.t0, h.t1);
+    EXPECT_LE(h.t1, 1.0);
+    EXPECT_GT(facing * dot(d, sec.normal(size_t(h.facet))), -1e-12);
+  }
+  EXPECT_NEAR(sum, p.weight, 1e-12);
+  std::map<int, double> brute;
+  double all = 0;
+  for (int i = 0; i < n; ++i) {
+    const double t = p.t0 + (p.t1 - p.t0) * (i + 0.5) / n;
+    const double w = density(fp, p.xAt(t));
+    all += w;
+    const Vec2d P = pointOn(sec, p.facet, t);
+    const int k = castRay(sec, P, d, p.facet);
+    brute[k] += w;
+    if (k < 0) continue;
+    ++hits_seen;
+    const Vec2d A = sec.pts[size_t(k)], ed = sec.pts[size_t(k) + 1] - A;
+    const double u = cross(A - P, d) / cross(d, ed);
+    bool found = false;
+    for (const Portion& h : s.hits)
+      if (h.facet == k && u >= h.t0 - 1e-9 && u <= h.t1 + 1e-9) {
+        found = true;
+        EXPECT_NEAR(h.xAt(u), p.xAt(t), 1e-6 * (1 + std::fabs(p.xAt(t))));
+      }
+    EXPECT_TRUE(found || w == 0) << "case " << c << " t " << t;
+  }
+  if (!(all > 0)) return hits_seen;
+  for (auto& kv : brute) {
+    const double expect = p.weight * kv.second / all;
+    const double have = kv.first < 0 ? s.escaped : got[kv.first];
+    EXPECT_NEAR(have, expect, 2e-3 * std::max(1.0, p.weight)) << "case " << c << " facet " << kv.first;
+  }
+  return hits_seen;
+}
+
 TEST(Groove, ScatterMatchesBruteForce) {
   Rand rnd(6);
   const int n = 3000;
@@ -502,47 +551,7 @@ TEST(Groove, ScatterMatchesBruteForce) {
         EXPECT_EQ(s.escaped, 0.0);
         continue;
       }
-      double sum = s.escaped;
-      std::map<int, double> got;
-      for (const Portion& h : s.hits) {
-        sum += h.weight;
-        got[h.facet] += h.weight;
-        ASSERT_LE(0.0, h.t0);
-        ASSERT_LE(h.t0, h.t1);
-        ASSERT_LE(h.t1, 1.0);
-        // Hit facets face the incoming rays.
-        EXPECT_LT(dot(d, sc.sec.normal(size_t(h.facet))), 1e-12);
-      }
-      EXPECT_NEAR(sum, p.weight, 1e-12);
-      std::map<int, double> brute;
-      double all = 0;
-      for (int i = 0; i < n; ++i) {
-        const double t = p.t0 + (p.t1 - p.t0) * (i + 0.5) / n;
-        const double w = density(fp, p.xAt(t));
-        all += w;
-        const Vec2d P = pointOn(sc.sec, p.facet, t);
-        const int k = castRay(sc.sec, P, d, p.facet);
-        brute[k] += w;
-        if (k < 0) continue;
-        ++hits_seen;
-        // The hit point lies in a returned portion of facet k, which maps it back to the
-        // footprint coordinate the ray started from.
-        const Vec2d A = sc.sec.pts[size_t(k)], ed = sc.sec.pts[size_t(k) + 1] - A;
-        const double u = cross(A - P, d) / cross(d, ed);
-        bool found = false;
-        for (const Portion& h : s.hits)
-          if (h.facet == k && u >= h.t0 - 1e-9 && u <= h.t1 + 1e-9) {
-            found = true;
-            EXPECT_NEAR(h.xAt(u), p.xAt(t), 1e-6 * (1 + std::fabs(p.xAt(t))));
-          }
-        EXPECT_TRUE(found || w == 0) << "case " << c << " t " << t;
-      }
-      if (!(all > 0)) continue;
-      for (auto& kv : brute) {
-        const double expect = p.weight * kv.second / all;
-        const double have = kv.first < 0 ? s.escaped : got[kv.first];
-        EXPECT_NEAR(have, expect, 2e-3 * std::max(1.0, p.weight)) << "case " << c << " facet " << kv.first;
-      }
+      hits_seen += expectLikeCastRays(sc.sec, p, fp, d, s, -1.0, n, c);
     }
   }
   EXPECT_GT(hits_seen, 1000);  // the random cases do exercise inter-reflection
@@ -589,32 +598,7 @@ TEST(Groove, ScatterInsideMatchesBruteForce) {
       if (dot(d, nrm) >= 0) d = d * -1.0;  // into the solid
       if (!(dot(d, nrm) < -1e-9)) continue;
       const Scatter s = scatterInside(sc.sec, p, fp, d);
-      double sum = s.escaped;
-      std::map<int, double> got;
-      for (const Portion& h : s.hits) {
-        sum += h.weight;
-        got[h.facet] += h.weight;
-        // Met from inside: the rays leave through the facets they hit.
-        EXPECT_GT(dot(d, sc.sec.normal(size_t(h.facet))), -1e-12);
-      }
-      EXPECT_NEAR(sum, p.weight, 1e-12);
-      // Brute force on the section itself: the first facet a ray from the portion crosses.
-      std::map<int, double> brute;
-      double all = 0;
-      for (int i = 0; i < n; ++i) {
-        const double t = p.t0 + (p.t1 - p.t0) * (i + 0.5) / n;
-        const double w = density(fp, p.xAt(t));
-        all += w;
-        const int k = castRay(sc.sec, pointOn(sc.sec, p.facet, t), d, p.facet);
-        brute[k] += w;
-        hits_seen += k >= 0 && w > 0;
-      }
-      if (!(all > 0)) continue;
-      for (auto& kv : brute) {
-        const double expect = p.weight * kv.second / all;
-        const double have = kv.first < 0 ? s.escaped : got[kv.first];
-        EXPECT_NEAR(have, expect, 2e-3 * std::max(1.0, p.weight)) << "case " << c << " facet " << kv.first;
-      }
+      hits_seen += expectLikeCastRays(sc.sec, p, fp, d, s, 1.0, n, c);
     }
   }
   EXPECT_GT(hits_seen, 1000);  // rays do meet the section again from inside

@@ -435,10 +435,6 @@ TEST(ScratchGeometry, CurvedPartsAreCutAlongTheSurfaceNormal) {
   EXPECT_TRUE(found);
 }
 
-// Where the composite height jumps (a groove cutting through another's pile-up; an abrupt end),
-// the mesh has vertical walls, so it is the height field itself: rays cast at it hit where rays
-// marched through the height field stop, also rays that meet a wall. Without the walls (each side's
-// facets ramped into the other's over one cell), rays near the jumps stop early or late.
 // A blunt end (no fade) is cut along the cross-section's kinks up to its end line: every triangle of
 // its end cells lies on one facet of the profile, on the plate, or on an end wall. Until 2026-11-28
 // the kinks were undefined past the end line, so a cell across it kept pieces that spanned two
@@ -477,6 +473,10 @@ TEST(ScratchGeometry, ABluntEndIsCutAlongItsFacetsUpToTheEndLine) {
   EXPECT_EQ(off, 0u) << "of " << near_end << " triangles near the ends";
 }
 
+// Where the composite height jumps (a groove cutting through another's pile-up; an abrupt end),
+// the mesh has vertical walls, so it is the height field itself: rays cast at it hit where rays
+// marched through the height field stop, also rays that meet a wall. Without the walls (each side's
+// facets ramped into the other's over one cell), rays near the jumps stop early or late.
 TEST(ScratchGeometry, JumpsBecomeWallsAndRaysHitTheHeightField) {
   PlateParams pp;
   pp.width_mm = 4;

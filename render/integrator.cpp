@@ -58,6 +58,15 @@ struct DiffRay {
   Vec3f dodx, dody, dddx, dddy;
 };
 
+// A ray with no footprint (zero differentials): the rays a groove footprint sends on.
+DiffRay bareRay(Vec3f o, Vec3f d) {
+  DiffRay r;
+  r.o = o;
+  r.d = d;
+  r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
+  return r;
+}
+
 struct Hit {
   bool hit = false;
   float t = kInf;
@@ -1709,10 +1718,7 @@ class Tracer {
     Rgb L(0.0f);
     const groove::Scatter in = groove::scatterInside(geo.sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
     if (in.escaped > 0 && dot(d, gs.W) < 0) {
-      DiffRay r;
-      r.o = insideGrooves(gs);
-      r.d = d;
-      r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
+      const DiffRay r = bareRay(insideGrooves(gs), d);
       L += continuePath(r, beta * float(in.escaped), pdf, true, r.o, 1 + level, rng, nrays, nl_eff, nl_env);
     }
     if (in.hits.empty() || level + 1 >= st_.max_bounces) return L;
@@ -1738,10 +1744,7 @@ class Tracer {
       return L + throughSection(geo, top, q, d2, beta2, bs.pdf, level + 1, ls, rng, nrays, nl_eff, nl_env);
     const groove::Scatter out = geo.scatter(q, d2);
     if (out.escaped > 0 && dot(d2, gs.W) > 0) {
-      DiffRay r;
-      r.o = aboveGrooves(gs);
-      r.d = d2;
-      r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
+      const DiffRay r = bareRay(aboveGrooves(gs), d2);
       L += continuePath(r, beta2 * float(out.escaped), bs.pdf, true, r.o, 2 + level, rng, nrays, nl_eff, nl_env);
     }
     if (!out.hits.empty() && level + 2 < st_.max_bounces)
@@ -1834,10 +1837,7 @@ class Tracer {
                               nl_eff, nl_env);
           continue;
         }
-        DiffRay r;
-        r.o = insideGrooves(gs);
-        r.d = d;
-        r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
+        const DiffRay r = bareRay(insideGrooves(gs), d);
         // The whole portion refracts this way (its weight, as the escaped share's).
         L += continuePath(r, beta_next * float(p.weight), float(nbm * p.weight / wsum) * dr.pdf, true, r.o, 1 + level,
                           rng, nrays, nl_eff, nl_env);
@@ -1850,10 +1850,7 @@ class Tracer {
         continue;
       }
       if (sc.escaped > 0 && dot(d, gs.W) > 0) {
-        DiffRay r;
-        r.o = origin;
-        r.d = d;
-        r.dodx = r.dody = r.dddx = r.dddy = Vec3f(0.0f);
+        const DiffRay r = bareRay(origin, d);
         L += continuePath(r, beta_next * float(sc.escaped), float(nbm * p.weight / wsum) * dr.pdf, false, origin,
                           1 + level, rng, nrays, nl_eff, nl_env, direct_scale * float(nb) / nbm, nullptr, 0, nullptr,
                           ls.guides);

@@ -313,6 +313,7 @@ double Surface::heightAt(Vec2d p) const {
 bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   pieces_.clear();
   cache_keys_ = 0;
+  mirror_built_ = false;
   walls_.clear();
   grooves_ = grooves;
   if (grooves.size() > kMaxGrooves) return false;
@@ -830,6 +831,37 @@ Hits Surface::scatter(const Portion& p, Vec3d d) const {
     h.hits.push_back(std::move(hit));
   }
   h.escaped = p.density * area(rest);
+  return h;
+}
+
+const Surface& Surface::mirrored() const {
+  if (!mirror_) mirror_ = std::make_unique<Surface>();
+  if (!mirror_built_) {
+    // z -> -z: each piece's plane negated (its normal (-g, 1) becomes the mirror of the inward
+    // normal), its highest point the negated lowest. The (x, y) polygons and bins are the same.
+    Surface& m = *mirror_;
+    m.pieces_ = pieces_;
+    for (Piece& pc : m.pieces_) {
+      double zmin = 1e300;
+      for (int k = 0; k < pc.poly.n; ++k) zmin = std::min(zmin, pc.plane.at(pc.poly.v[size_t(k)]));
+      pc.plane.z0 = -pc.plane.z0;
+      pc.plane.g = Vec2d(-pc.plane.g.x, -pc.plane.g.y);
+      pc.zmax = -zmin;
+    }
+    m.walls_.clear();
+    m.grooves_.clear();
+    m.cache_keys_ = 0;
+    m.binPieces();
+    mirror_built_ = true;
+  }
+  return *mirror_;
+}
+
+Hits Surface::scatterInside(const Portion& p, Vec3d d) const {
+  const Surface& m = mirrored();
+  const size_t before = m.overflow;
+  Hits h = m.scatter(p, Vec3d(d.x, d.y, -d.z));
+  overflow += m.overflow - before;
   return h;
 }
 

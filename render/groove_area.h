@@ -26,6 +26,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <vector>
 
 #include "core/math.h"
@@ -143,6 +144,13 @@ class Surface {
   double litFraction(const Portion& p, Vec3d l, size_t key) const;
   // Where rays leaving portion p in direction d go (d on p's front side).
   Hits scatter(const Portion& p, Vec3d d) const;
+  // Where rays leaving portion p into the solid go (d on p's back side: a ray refracted into a
+  // glass part): the pieces they meet again from inside (a pile-up's far side, a wall under it,
+  // the walls of a crossing groove), with the shares of p's weight mapped onto them, and the share
+  // that meets none within the region (`escaped`). Seen upside down this is scatter(): mirrored
+  // in z the solid lies above the surface and d points up out of the mirrored pieces, so it is
+  // scatter() on the mirrored surface (built at the first call after build(), then kept).
+  Hits scatterInside(const Portion& p, Vec3d d) const;
   // Fragments dropped at the cap so far (diagnostics and tests).
   mutable size_t overflow = 0;
 
@@ -199,6 +207,10 @@ class Surface {
   mutable size_t cache_keys_ = 0;
   mutable std::vector<std::pair<int, int>> cache_range_;
   mutable std::vector<Poly> cache_polys_;
+  // The surface mirrored in z (scatterInside); its buffers are kept from one build to the next.
+  mutable std::unique_ptr<Surface> mirror_;
+  mutable bool mirror_built_ = false;
+  const Surface& mirrored() const;
   double litWith(const Portion& p, const Poly* shadows, size_t n) const;
 };
 

@@ -1337,8 +1337,8 @@ class Tracer {
   // pile-up at the footprint centre.
   Vec3f aboveGrooves(const GrooveSet& gs) const { return gs.F + gs.W * (max_height_ + rayEpsilon(gs.F)); }
   // And where rays refracted into a glass part start: just inside the part's surface at the
-  // footprint centre. They go down into the solid; under a 1-D section, the share that meets the
-  // section again from inside was taken out before (throughSection).
+  // footprint centre. They go down into the solid; the share that meets the grooves again from
+  // inside was taken out before (throughGrooves).
   Vec3f insideGrooves(const GrooveSet& gs) const { return gs.F - gs.W * rayEpsilon(gs.F); }
 
   // One light sample shared by every facet of the footprint.
@@ -1372,6 +1372,10 @@ class Tracer {
     groove::Scatter scatter(const Portion& p, Vec3f d) const {
       return groove::scatter(sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
     }
+    // Where rays refracted into the solid at p go (throughGrooves).
+    groove::Scatter scatterInside(const Portion& p, Vec3f d) const {
+      return groove::scatterInside(sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
+    }
     // The facets (a portion lies on one), which a chain direction may aim at (Chain): every facet
     // of the section, the flat ones too (a groove's bottom and the plate between grooves also
     // mirror a bar into the walls).
@@ -1403,6 +1407,7 @@ class Tracer {
     int layer(const Portion& p) const { return facetLayer(size_t(p.piece)); }
     double lit(const Portion& p, size_t li) const { return gs.surface.litFraction(p, light[li], li); }
     groove::area::Hits scatter(const Portion& p, Vec3f d) const { return gs.surface.scatter(p, local(d)); }
+    groove::area::Hits scatterInside(const Portion& p, Vec3f d) const { return gs.surface.scatterInside(p, local(d)); }
     // The facets (a portion lies on one), which a chain direction may aim at (Chain): the pieces.
     size_t facets() const { return gs.surface.pieces().size(); }
     Vec3f facetNormal(size_t k) const {
@@ -1692,31 +1697,32 @@ class Tracer {
     out.ratio = bs.f * (std::fabs(bs.wi.z) / bs.pdf);
     if (!isFinite(out.ratio) || maxComponent(out.ratio) <= 0) return false;
     out.through = bs.wi.z < 0;
-    // Into the part. Under a 1-D section the refracted rays are followed through it
-    // (throughSection), also those that run up into a pile-up; elsewhere only those that go down
-    // below the base plane go on.
-    if (out.through) return std::is_same_v<Geometry, LineGeometry> || dot(out.d, geo.gs.W) < 0;
+    // Into the part: the refracted rays are followed through the grooves (throughGrooves), also
+    // those that run up into a pile-up.
+    if (out.through) return true;
     out.sc = geo.scatter(p, out.d);
     return true;
   }
 
-  // Rays refracted into a glass part at portion p of a 1-D section (direction d, throughput beta
-  // per unit of the portion's weight, pdf the direction's), followed through the section: what
-  // meets no facet again goes on down into the solid as an ordinary ray; what meets a facet from
-  // inside (the far side of a pile-up's ridge, a groove wall under it) is reflected or refracted
-  // there by the glass seen from its solid side, one hit portion chosen by weight. Reflected, it
-  // goes on through the section; refracted out, into the air above that facet, it meets the
-  // section from outside (shadeLevel on what it hits) or leaves the grooves. Level `level` is the
-  // vertex that refracted; each hit is one more, within max_bounces. No light sample reaches
-  // through a facet, so the rays count the emitters they meet in full (as before, when every
-  // refracted ray went straight into the solid: Bosch's E_t; five or six deep scratches merged
-  // into one band on glass lost 5% of the band's light that way, docs/grooves.md, "Glass").
-  Rgb throughSection(const LineGeometry& geo, const Material& top, const groove::Portion& p, Vec3f d, Rgb beta,
+  // Rays refracted into a glass part at portion p of a 1-D section or of a polygon surface
+  // (direction d, throughput beta per unit of the portion's weight, pdf the direction's), followed
+  // through the grooves from inside (Geometry::scatterInside): what meets no facet again goes on
+  // down into the solid as an ordinary ray; what meets a facet from inside (the far side of a
+  // pile-up's ridge, a groove wall under it) is reflected or refracted there by the glass seen
+  // from its solid side, one hit portion chosen by weight. Reflected, it goes on inside;
+  // refracted out, into the air above that facet, it meets the grooves from outside (shadeLevel
+  // on what it hits) or leaves them. Level `level` is the vertex that refracted; each hit is one
+  // more, within max_bounces. No light sample reaches through a facet, so the rays count the
+  // emitters they meet in full (as before, when every refracted ray went straight into the
+  // solid: Bosch's E_t; a band of five or six merged deep scratches on glass lost 5% of its light
+  // that way, and its crossings with other deep grooves 1.5-3%; docs/grooves.md, "Glass").
+  template <class Geometry>
+  Rgb throughGrooves(const Geometry& geo, const Material& top, const typename Geometry::Portion& p, Vec3f d, Rgb beta,
                      float pdf, int level, const LightSamples& ls, Rng& rng, uint64_t& nrays, float nl_eff,
                      float nl_env) const {
     const GrooveSet& gs = geo.gs;
     Rgb L(0.0f);
-    const groove::Scatter in = groove::scatterInside(geo.sec, p, gs.fp, Vec2d(dot(d, gs.B), dot(d, gs.W)));
+    const typename Geometry::Scatter in = geo.scatterInside(p, d);
     if (in.escaped > 0 && dot(d, gs.W) < 0) {
       const DiffRay r = bareRay(insideGrooves(gs), d);
       L += continuePath(r, beta * float(in.escaped), pdf, true, r.o, 1 + level, rng, nrays, nl_eff, nl_env);
@@ -1725,7 +1731,7 @@ class Tracer {
     double hsum = 0;
     for (const auto& h : in.hits) hsum += h.weight;
     if (!(hsum > 0)) return L;
-    const groove::Portion& q = in.hits[pickByWeight(in.hits, rng.uniformD() * hsum)];
+    const typename Geometry::Portion& q = in.hits[pickByWeight(in.hits, rng.uniformD() * hsum)];
     if (!(q.weight > 0)) return L;
     // The facet seen from the solid: its normal turned into the solid, the relative index inverted.
     const Material m = facing(facetMaterial(gs, geo.layer(q), top), false);
@@ -1741,8 +1747,8 @@ class Tracer {
     const Rgb beta2 = beta * bs.f * float(std::fabs(bs.wi.z) / bs.pdf * hsum / q.weight);
     if (!isFinite(beta2) || maxComponent(beta2) <= 0) return L;
     if (bs.wi.z > 0)  // reflected, still inside the solid
-      return L + throughSection(geo, top, q, d2, beta2, bs.pdf, level + 1, ls, rng, nrays, nl_eff, nl_env);
-    const groove::Scatter out = geo.scatter(q, d2);
+      return L + throughGrooves(geo, top, q, d2, beta2, bs.pdf, level + 1, ls, rng, nrays, nl_eff, nl_env);
+    const typename Geometry::Scatter out = geo.scatter(q, d2);
     if (out.escaped > 0 && dot(d2, gs.W) > 0) {
       const DiffRay r = bareRay(aboveGrooves(gs), d2);
       L += continuePath(r, beta2 * float(out.escaped), bs.pdf, true, r.o, 2 + level, rng, nrays, nl_eff, nl_env);
@@ -1832,15 +1838,8 @@ class Tracer {
         // Refracted into glass (Bosch §4.3, E_t): an ordinary ray on from inside the part. No
         // light sample covers it (they stay above the surface), so its emitter counts in full.
         if (direct_only) continue;
-        if constexpr (std::is_same_v<Geometry, LineGeometry>) {
-          L += throughSection(geo, top, p, d, beta_next, float(nbm * p.weight / wsum) * dr.pdf, level, ls, rng, nrays,
-                              nl_eff, nl_env);
-          continue;
-        }
-        const DiffRay r = bareRay(insideGrooves(gs), d);
-        // The whole portion refracts this way (its weight, as the escaped share's).
-        L += continuePath(r, beta_next * float(p.weight), float(nbm * p.weight / wsum) * dr.pdf, true, r.o, 1 + level,
-                          rng, nrays, nl_eff, nl_env);
+        L += throughGrooves(geo, top, p, d, beta_next, float(nbm * p.weight / wsum) * dr.pdf, level, ls, rng, nrays,
+                            nl_eff, nl_env);
         continue;
       }
       if (direct_only) {

@@ -177,6 +177,10 @@ LAYOUTS["band"] = """
     hardness_hv: 20
     region: [0.4779, 0.4763, 0.5087, 0.5071]
 """
+# The band crossed by two scratches as deep: on glass, light refracted into the pile-ups and walls
+# where they cross meets the polygon surface again from inside.
+LAYOUTS["crossed_band"] = LAYOUTS["band"] + LAYOUTS["band"].replace("count: 6", "count: 2").replace(
+    "orientation_deg: 41", "orientation_deg: 131")
 # The ends layout's five scratches with blunt ends (no fade): each groove stops at full depth at its
 # end line.
 LAYOUTS["blunt"] = LAYOUTS["ends"].replace("fade_mm: 0.6", "fade_mm: 0")

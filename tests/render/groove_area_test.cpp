@@ -286,6 +286,71 @@ TEST_P(Layouts, ScatterSharesMatchRayMarching) {
   EXPECT_GT(blk, 0);
 }
 
+// Rays refracted into the solid (scatterInside): the share of each portion that meets the surface
+// again from inside, against rays marched one by one from below the surface until they rise
+// above it (a hit) or sink below every groove (escaped). One direction slants down under the
+// pile-ups towards the grooves' walls; the other rises, into the pile-ups' slopes that face away
+// from it, and leaves through their far sides or the walls beyond.
+TEST_P(Layouts, ScatterInsideSharesMatchRayMarching) {
+  auto gs = grooves();
+  Surface s;
+  ASSERT_TRUE(s.build(rect(-0.4, -0.4, 0.4, 0.4), gs));
+  Poly fp = rect(-0.06, -0.06, 0.06, 0.06);
+  std::vector<Portion> vis = s.visible(fp, {0, 0, 1});
+  // Does the ray from (p, z) towards d, inside the solid, rise above the surface before it sinks
+  // below every groove?
+  auto exits = [&](Vec2d p, double z, Vec3d d) {
+    const double step = 2e-5;
+    for (double t = step; t < 1; t += step) {
+      Vec2d q(p.x + d.x * t, p.y + d.y * t);
+      double zr = z + d.z * t;
+      if (zr < -0.025) return false;
+      if (zr > composite(gs, q) + 1e-7) return true;
+    }
+    return false;
+  };
+  for (const Vec3d d : {unit({0.2, 0.95, -0.25}), unit({0.45, -0.85, 0.3})}) {
+    double hit = 0, total = 0, on_walls = 0;
+    for (const Portion& p : vis) {
+      const Vec3d n = s.pieces()[size_t(p.piece)].plane.normal();
+      Hits h = s.scatterInside(p, d);
+      if (n.x * d.x + n.y * d.y + n.z * d.z >= 0) {
+        EXPECT_TRUE(h.hits.empty() && h.escaped == 0) << "a ray out of the front side is scatter()'s";
+        continue;
+      }
+      double sum = h.escaped;
+      for (const Portion& q : h.hits) {
+        sum += q.weight;
+        if (s.pieces()[size_t(q.piece)].wall) on_walls += q.weight;
+        // A hit lies where the ray meets the piece from below: the piece faces away from d.
+        const Vec3d nq = s.pieces()[size_t(q.piece)].plane.normal();
+        EXPECT_GT(nq.x * d.x + nq.y * d.y + nq.z * d.z, 0);
+      }
+      EXPECT_NEAR(sum, p.weight, 1e-9 + 1e-6 * p.weight);
+      total += p.weight;
+      hit += p.weight - h.escaped;
+    }
+    const int n = 80;
+    int back = 0, out = 0;
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        Vec2d p(-0.06 + 0.12 * (i + 0.5) / n, -0.06 + 0.12 * (j + 0.5) / n);
+        int k = pieceAt(s, p);
+        ASSERT_GE(k, 0);
+        Vec3d nn = s.pieces()[size_t(k)].plane.normal();
+        if (nn.x * d.x + nn.y * d.y + nn.z * d.z >= 0) continue;
+        ++back;
+        if (exits(p, composite(gs, p) - 1e-6, d)) ++out;
+      }
+    EXPECT_NEAR(total, double(back) / (n * n), 0.02) << d.z;
+    EXPECT_NEAR(hit, double(out) / (n * n), 0.02) << d.z;
+    EXPECT_GT(out, 20) << d.z;
+    EXPECT_EQ(s.overflow, 0u);
+    std::printf("[          ] d.z %.2f: back side %.4f, meets the surface again %.4f (marched %.4f), on walls %.4f\n", d.z,
+                total, hit, double(out) / (n * n), on_walls);
+  }
+}
+
 // The shadow polygons cached per piece and light give the lit fractions computed afresh.
 TEST_P(Layouts, CachedShadowsGiveTheSameLitFractions) {
   auto gs = grooves();

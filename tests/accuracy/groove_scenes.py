@@ -181,6 +181,37 @@ LAYOUTS["band"] = """
 # where they cross meets the polygon surface again from inside.
 LAYOUTS["crossed_band"] = LAYOUTS["band"] + LAYOUTS["band"].replace("count: 6", "count: 2").replace(
     "orientation_deg: 41", "orientation_deg: 131")
+# The fuzzer's c18_6: six light scratches in random directions, three deep curved ones (3.9 kg on
+# HV 20) whose force fades out over 0.3 mm among them, and one more deep one. Around a deep
+# groove's faded tip the polygons' linear scale (the tangent at the closest point) stood its
+# pile-up up to three times its height, shadowing and cutting the light grooves' lit walls.
+LAYOUTS["tips"] = """
+  - type: scratch
+    count: 6
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 6.2
+    force_kg: 0.63
+    hardness_hv: 30
+    region: [0.4831, 0.4240, 0.5764, 0.5173]
+    fade_mm: 0.30
+    pileup: 0.14
+  - type: scratch
+    count: 3
+    orientation_deg: 119
+    length_mm: 2.3
+    force_kg: 3.91
+    hardness_hv: 20
+    region: [0.4778, 0.4433, 0.5624, 0.5279]
+    curvature_per_mm: {uniform: [0.02, 0.2]}
+    fade_mm: 0.30
+  - type: scratch
+    count: 1
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 5.1
+    force_kg: 3.71
+    hardness_hv: 20
+    region: [0.4366, 0.4751, 0.5299, 0.5683]
+"""
 # The ends layout's five scratches with blunt ends (no fade): each groove stops at full depth at its
 # end line.
 LAYOUTS["blunt"] = LAYOUTS["ends"].replace("fade_mm: 0.6", "fade_mm: 0")

@@ -136,7 +136,7 @@ class GrooveAccuracy(unittest.TestCase):
         they cross the footprints are polygons, and light refracted into a pile-up there meets the
         pieces again from inside (Surface::scatterInside). Until 2026-11-28 such rays went straight
         on into the solid, and the crossings lacked 1.5 to 3% of their light: 0.499% of pixels
-        >= 10 (mean dE 0.42); now 0.087% (0.33). Bounded at half the target, which the old
+        >= 10 (mean dE 0.42); now 0.076% (0.33). Bounded at half the target, which the old
         renderer fails."""
         st = self.check("crossed_band", "backlight", material="glass")
         self.assertLess(st["pct_ge_10"], 0.25)

@@ -82,6 +82,30 @@ int pieceAt(const Surface& s, Vec2d p) {
   return -1;
 }
 
+// Over an 80 x 80 grid on the footprint [-0.06, 0.06]^2 seen head-on: the share of points whose
+// piece faces d (side +1) or faces away from it (side -1), and the share of those for which
+// `met(p)` holds (a ray marched from there meets the surface).
+struct GridShares {
+  double side = 0, met = 0;
+};
+template <class Met>
+GridShares gridShares(const Surface& s, Vec3d d, int side, Met met) {
+  const int n = 80;
+  int on_side = 0, hits = 0;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      Vec2d p(-0.06 + 0.12 * (i + 0.5) / n, -0.06 + 0.12 * (j + 0.5) / n);
+      int k = pieceAt(s, p);
+      EXPECT_GE(k, 0);
+      if (k < 0) continue;
+      Vec3d nn = s.pieces()[size_t(k)].plane.normal();
+      if (side * (nn.x * d.x + nn.y * d.y + nn.z * d.z) <= 0) continue;
+      ++on_side;
+      hits += met(p);
+    }
+  return {double(on_side) / (n * n), double(hits) / (n * n)};
+}
+
 // A V-groove with pile-up peaks (mm): 0.1 wide, 0.02 deep.
 const std::vector<Vec2d> kProfile = {{-0.07, 0}, {-0.06, 0.004}, {-0.05, 0}, {0, -0.02},
                                      {0.05, 0}, {0.06, 0.004}, {0.07, 0}};
@@ -269,21 +293,10 @@ TEST_P(Layouts, ScatterSharesMatchRayMarching) {
     }
   }
   // Brute force over the same footprint seen head-on.
-  const int n = 80;
-  int front = 0, blk = 0;
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      Vec2d p(-0.06 + 0.12 * (i + 0.5) / n, -0.06 + 0.12 * (j + 0.5) / n);
-      int k = pieceAt(s, p);
-      ASSERT_GE(k, 0);
-      Vec3d nn = s.pieces()[size_t(k)].plane.normal();
-      if (nn.x * d.x + nn.y * d.y + nn.z * d.z <= 0) continue;
-      ++front;
-      if (blocked(gs, p, composite(gs, p) + 1e-6, d, 0.005)) ++blk;
-    }
-  EXPECT_NEAR(total, double(front) / (n * n), 0.02);
-  EXPECT_NEAR(hit, double(blk) / (n * n), 0.02);
-  EXPECT_GT(blk, 0);
+  const GridShares g = gridShares(s, d, +1, [&](Vec2d p) { return blocked(gs, p, composite(gs, p) + 1e-6, d, 0.005); });
+  EXPECT_NEAR(total, g.side, 0.02);
+  EXPECT_NEAR(hit, g.met, 0.02);
+  EXPECT_GT(g.met, 0);
 }
 
 // Rays refracted into the solid (scatterInside): the share of each portion that meets the surface
@@ -330,24 +343,13 @@ TEST_P(Layouts, ScatterInsideSharesMatchRayMarching) {
       total += p.weight;
       hit += p.weight - h.escaped;
     }
-    const int n = 80;
-    int back = 0, out = 0;
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        Vec2d p(-0.06 + 0.12 * (i + 0.5) / n, -0.06 + 0.12 * (j + 0.5) / n);
-        int k = pieceAt(s, p);
-        ASSERT_GE(k, 0);
-        Vec3d nn = s.pieces()[size_t(k)].plane.normal();
-        if (nn.x * d.x + nn.y * d.y + nn.z * d.z >= 0) continue;
-        ++back;
-        if (exits(p, composite(gs, p) - 1e-6, d)) ++out;
-      }
-    EXPECT_NEAR(total, double(back) / (n * n), 0.02) << d.z;
-    EXPECT_NEAR(hit, double(out) / (n * n), 0.02) << d.z;
-    EXPECT_GT(out, 20) << d.z;
+    const GridShares g = gridShares(s, d, -1, [&](Vec2d p) { return exits(p, composite(gs, p) - 1e-6, d); });
+    EXPECT_NEAR(total, g.side, 0.02) << d.z;
+    EXPECT_NEAR(hit, g.met, 0.02) << d.z;
+    EXPECT_GT(g.met, 0.003) << d.z;
     EXPECT_EQ(s.overflow, 0u);
     std::printf("[          ] d.z %.2f: back side %.4f, meets the surface again %.4f (marched %.4f), on walls %.4f\n", d.z,
-                total, hit, double(out) / (n * n), on_walls);
+                total, hit, g.met, on_walls);
   }
 }
 

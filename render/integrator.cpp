@@ -1163,14 +1163,13 @@ class Tracer {
   // more than kScaleTol of the largest scale in reach and more than `tol_abs` (the caller's bound,
   // from the height that error moves), the groove enters as pieces along its tangent line: the
   // tangent itself as far as it holds on either side of the closest point (so the footprint keeps
-  // its exact scale and slope), and beyond that on either side at most kSideSegments pieces of a
-  // polyline through the scale sampled at kScaleSamples points over `reach` (uv) around the
-  // footprint's centre, with knots inserted where it strays most. Appends g as it is when the
+  // its exact scale and slope), and beyond that on either side one piece, linear from the
+  // tangent's last value to the true scale at the end of the reach (the scale sampled at
+  // kScaleSamples points over `reach` (uv) around the footprint's centre). Appends g as it is when the
   // tangent holds everywhere in reach, else the pieces (their profiles appended to `profiles`,
   // which must not reallocate: reserved by the caller). Returns how many grooves it appended.
   static constexpr int kScaleSamples = 33;
-  static constexpr int kSideSegments = 1;
-  static constexpr int kScaleSegments = 1 + 2 * kSideSegments;
+  static constexpr int kScaleSegments = 3;  // the tangent's piece and one on either side
   static constexpr float kScaleTol = 0.05f;
   static size_t scaleSegments(const NearGroove& ng, float k, const groove::area::Groove& g, float reach, double mm,
                               float tol_abs, std::vector<Profile>& profiles, std::vector<groove::area::Groove>& out) {
@@ -1213,52 +1212,31 @@ class Tracer {
       out.push_back(mid_g);
       ++added;
     }
-    // The polyline from sample `from` to sample `to` (one of them lo or hi, where it starts at the
-    // tangent's value), with knots where it strays most.
+    // Beyond the tangent's piece on either side, one piece from its last value (at sample lo or
+    // hi) to the true scale at the end of the reach.
     auto side = [&](int from, int to) {
       if (from == to) return;
-      const int step = to > from ? 1 : -1;
-      int knots[kSideSegments + 1] = {from, to};
-      int nk = 2;
+      const int j0 = std::min(from, to), j1 = std::max(from, to);
       auto val = [&](int j) { return j == lo || j == hi ? lin[j] : ks[j]; };
-      while (nk <= kSideSegments) {
-        int worst = -1;
-        float wdev = tol;
-        for (int q = 0; q + 1 < nk; ++q)
-          for (int j = knots[q] + step; j != knots[q + 1]; j += step) {
-            const float f = float(j - knots[q]) / float(knots[q + 1] - knots[q]);
-            const float d = std::fabs(val(knots[q]) + (val(knots[q + 1]) - val(knots[q])) * f - ks[j]);
-            if (d > wdev) wdev = d, worst = j;
-          }
-        if (worst < 0) break;
-        int at = nk - 1;
-        while (at > 1 && (knots[at - 1] - worst) * step > 0) --at;
-        for (int m = nk; m > at; --m) knots[m] = knots[m - 1];
-        knots[at] = worst;
-        ++nk;
-      }
-      for (int q = 0; q + 1 < nk; ++q) {
-        const int j0 = std::min(knots[q], knots[q + 1]), j1 = std::max(knots[q], knots[q + 1]);
-        const float k0 = val(j0), k1 = val(j1);
-        if (!(k0 > 0) && !(k1 > 0)) continue;
-        const int jr = k1 > k0 ? j1 : j0;  // the reference: the larger scale
-        const double sr = ss[jr];
-        // At sr the piece has the true scale, or the tangent's where it joins the tangent's piece.
-        const float want = val(jr);
-        Profile p = ng.sc->referenceProfile().scaled(double(want)).withLayers(ng.sc->layers());
-        for (auto& pt : p.pts) pt.x *= mm;
-        profiles.push_back(std::move(p));
-        groove::area::Groove h = g;
-        h.t0 = g.t0 - (sr - sc) * mm;
-        h.rho = double(k1 - k0) / ((ss[j1] - ss[j0]) * mm * double(want));
-        // The end pieces run on to the path's ends, as the whole groove did.
-        h.t_lo = j0 == 0 ? -sr * mm : (ss[j0] - sr) * mm;
-        h.t_hi = j1 == M - 1 ? (len - sr) * mm : (ss[j1] - sr) * mm;
-        h.pts = &profiles.back().pts;
-        h.layer = &profiles.back().layer;
-        out.push_back(h);
-        ++added;
-      }
+      const float k0 = val(j0), k1 = val(j1);
+      if (!(k0 > 0) && !(k1 > 0)) return;
+      const int jr = k1 > k0 ? j1 : j0;  // the reference: the larger scale
+      const double sr = ss[jr];
+      const float want = val(jr);
+      Profile p = ng.sc->referenceProfile().scaled(double(want)).withLayers(ng.sc->layers());
+      for (auto& pt : p.pts) pt.x *= mm;
+      profiles.push_back(std::move(p));
+      groove::area::Groove h = g;
+      h.t0 = g.t0 - (sr - sc) * mm;
+      h.rho = double(k1 - k0) / ((ss[j1] - ss[j0]) * mm * double(want));
+      // Where the reach ends before the path does, the piece runs on to the path's end, as the
+      // whole groove did (nothing past the reach is in the region).
+      h.t_lo = j0 == 0 ? -sr * mm : (ss[j0] - sr) * mm;
+      h.t_hi = j1 == M - 1 ? (len - sr) * mm : (ss[j1] - sr) * mm;
+      h.pts = &profiles.back().pts;
+      h.layer = &profiles.back().layer;
+      out.push_back(h);
+      ++added;
     };
     side(lo, 0);
     side(hi, M - 1);

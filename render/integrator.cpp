@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 #include <optional>
-#include <type_traits>
 
 #include "core/parallel.h"
 #include "core/rng.h"
@@ -992,7 +991,11 @@ class Tracer {
 
   // The groove's cross-section at its closest point, with b in mm of surface (the chart's stretch).
   static Profile surfaceProfile(const NearGroove& ng, float mm_per_uv) {
-    Profile p = ng.sc->profileAt(ng.pp.s);
+    return surfaceProfile(*ng.sc, ng.sc->scaleAt(ng.pp.s), mm_per_uv);
+  }
+  // The same at scale k (Scratch::profileAt's, for a scale that is not the path's own there).
+  static Profile surfaceProfile(const Scratch& sc, float k, double mm_per_uv) {
+    Profile p = sc.referenceProfile().scaled(double(k)).withLayers(sc.layers());
     for (auto& q : p.pts) q.x *= mm_per_uv;
     return p;
   }
@@ -1223,9 +1226,7 @@ class Tracer {
       const int jr = k1 > k0 ? j1 : j0;  // the reference: the larger scale
       const double sr = ss[jr];
       const float want = val(jr);
-      Profile p = ng.sc->referenceProfile().scaled(double(want)).withLayers(ng.sc->layers());
-      for (auto& pt : p.pts) pt.x *= mm;
-      profiles.push_back(std::move(p));
+      profiles.push_back(surfaceProfile(*ng.sc, want, mm));
       groove::area::Groove h = g;
       h.t0 = g.t0 - (sr - sc) * mm;
       h.rho = double(k1 - k0) / ((ss[j1] - ss[j0]) * mm * double(want));
@@ -1354,10 +1355,13 @@ class Tracer {
     // linear (scaleSegments), then, where that passed the caps at every reach (the pieces count as
     // grooves), each reach with every groove whole, as before 2026-11-28.
     double last = -1;
-    bool any_split = true;
-    for (int whole = 0; whole < 2; ++whole) {
-      if (whole == 1 && !any_split) break;  // the same grooves as above
-      any_split = false;
+    // Whether a groove within the largest reach is in pieces (else the second round would build
+    // the same surfaces again).
+    bool split = false;
+    const double reach_max = std::max(double(view_reach), double(enlarge)) + 1e-3;
+    for (size_t i = 0; i < grooves.size(); ++i)
+      split = split || (near_mm[i] <= reach_max * std::sqrt(2.0) + fp_r && seg_at[i + 1] - seg_at[i] != 1);
+    for (int whole = split ? 0 : 1; whole < 2; ++whole) {
       last = -1;
       for (double f : {1.0, 0.5, 0.25}) {
         const double R = std::max(double(view_reach), f * double(enlarge)) + 1e-3;
@@ -1368,12 +1372,10 @@ class Tracer {
         for (size_t i = 0; i < grooves.size(); ++i)
           if (near_mm[i] <= R * std::sqrt(2.0) + fp_r) {
             order.push_back(i);
-            if (whole) {
+            if (whole)
               within.push_back(grooves[i]);
-            } else {
+            else
               within.insert(within.end(), segs.begin() + long(seg_at[i]), segs.begin() + long(seg_at[i + 1]));
-              any_split = any_split || seg_at[i + 1] - seg_at[i] != 1;
-            }
           }
         if (within.empty()) continue;
         if (gs.surface.build(square(R), within)) return true;

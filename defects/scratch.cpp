@@ -76,6 +76,19 @@ ScratchPath ScratchPath::polyline(std::vector<Vec2d> pts) {
   return p;
 }
 
+const ScratchPath::Corner* ScratchPath::nearestCorner(Vec2d p, double max_dist) const {
+  const Corner* best = nullptr;
+  double best_d = max_dist;
+  for (const Corner& c : corners_) {
+    const double d = len2(c.p - p);
+    if (d <= best_d) {
+      best_d = d;
+      best = &c;
+    }
+  }
+  return best;
+}
+
 ScratchPath ScratchPath::sub(double s0, double s1) const {
   const double L = length();
   s0 = std::clamp(s0, 0.0, L);
@@ -123,6 +136,14 @@ void ScratchPath::finish() {
     arcf_[i] = float(arc_[i]);
     box_.lo = {std::min(box_.lo.x, ptsf_[i].x), std::min(box_.lo.y, ptsf_[i].y)};
     box_.hi = {std::max(box_.hi.x, ptsf_[i].x), std::max(box_.hi.y, ptsf_[i].y)};
+  }
+  corners_.clear();
+  for (size_t i = 1; i + 1 < n; ++i) {
+    const Vec2d a = pts_[i] - pts_[i - 1], b = pts_[i + 1] - pts_[i];
+    const double la = len2(a), lb = len2(b);
+    const Vec2d ta = a * (1.0 / la), tb = b * (1.0 / lb);
+    const double turn = std::atan2(ta.x * tb.y - ta.y * tb.x, ta.x * tb.x + ta.y * tb.y);
+    if (std::fabs(turn) >= kCornerTurn) corners_.push_back({i, arc_[i], pts_[i], ta, tb, turn});
   }
   // Segment grid: square cells, about two per segment along the longer box side.
   size_t nseg = n - 1;

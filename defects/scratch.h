@@ -74,6 +74,21 @@ class ScratchPath {
   // farther than max_dist; with the default it is an exhaustive scan.
   PathPoint closest(Vec2f p, float max_dist = std::numeric_limits<float>::infinity()) const;
 
+  // An interior vertex where the path turns by at least kCornerTurn (rad): a polyline's corner, or
+  // a kink between two cubic curves (the small turns of a flattened curve stay below it). The
+  // groove renderer gives such a vertex its two legs and the round outer side the explicit
+  // geometry has there (render/groove_area.h, cornerParts). turn > 0: to the left.
+  struct Corner {
+    size_t vertex = 0;
+    double s = 0;  // arc position
+    Vec2d p{0, 0}, t_in{1, 0}, t_out{1, 0};
+    double turn = 0;
+  };
+  static constexpr double kCornerTurn = 10.0 * 3.14159265358979323846 / 180.0;
+  const std::vector<Corner>& corners() const { return corners_; }
+  // The corner nearest p within max_dist, or null.
+  const Corner* nearestCorner(Vec2d p, double max_dist) const;
+
  private:
   void finish();  // arc lengths, box, float copy, segment grid
   void closestOnSegment(size_t i, Vec2f p, float& best_d2, size_t& best_i, float& best_t) const;
@@ -86,6 +101,7 @@ class ScratchPath {
   int gx_ = 0, gy_ = 0;
   float cell_w_ = 1, cell_h_ = 1;
   std::vector<uint32_t> cell_start_, cell_seg_;
+  std::vector<Corner> corners_;
 };
 
 // ------------------------------------------------------------------------------------------------

@@ -302,6 +302,41 @@ TEST(ScratchPath, BezierFlatteningErrorBound) {
   EXPECT_THROW(ScratchPath::bezier({{0, 0}, {1, 1}, {2, 2}}), std::invalid_argument);
 }
 
+// Corners: a polyline's vertices that turn by 10 degrees or more, with their sides; the flattened
+// curves of the scene's patterns (a cubic curve, an arc, wash swirls, a key scratch) have none.
+TEST(ScratchPath, CornersAreTheVerticesThatTurn) {
+  // Turns: 90 degrees left at (1, 0), 5.7 right at (1, 1), 113.3 right at (1.1, 2), 29.1 left at
+  // (2, 1.5).
+  ScratchPath z = ScratchPath::polyline({{0, 0}, {1, 0}, {1, 1}, {1.1, 2}, {2, 1.5}, {3, 1.5}});
+  const auto& cs = z.corners();
+  ASSERT_EQ(cs.size(), 3u);
+  EXPECT_EQ(cs[0].vertex, 1u);
+  EXPECT_NEAR(cs[0].turn, M_PI / 2, 1e-12);
+  EXPECT_NEAR(cs[0].s, 1.0, 1e-12);
+  EXPECT_NEAR(cs[0].t_in.x, 1, 1e-12);
+  EXPECT_NEAR(cs[0].t_out.y, 1, 1e-12);
+  EXPECT_EQ(cs[1].vertex, 3u);
+  EXPECT_NEAR(cs[1].turn, -(std::atan2(1, 0.1) + std::atan2(0.5, 0.9)), 1e-12);
+  EXPECT_EQ(cs[2].vertex, 4u);
+  EXPECT_NEAR(cs[2].turn, std::atan2(0.5, 0.9), 1e-12);
+  // Below 10 degrees: none.
+  EXPECT_TRUE(ScratchPath::polyline({{0, 0}, {1, 0}, {2, 0.17}}).corners().empty());  // 9.6 degrees
+  EXPECT_EQ(ScratchPath::polyline({{0, 0}, {1, 0}, {2, 0.18}}).corners().size(), 1u);  // 10.2
+  // The nearest within reach.
+  EXPECT_EQ(z.nearestCorner({1.1, 0.1}, 0.5), &cs[0]);
+  EXPECT_EQ(z.nearestCorner({1.9, 1.6}, 0.5), &cs[2]);
+  EXPECT_EQ(z.nearestCorner({1.1, 0.6}, 0.5), nullptr);
+  EXPECT_EQ(z.nearestCorner({5, 5}, 0.5), nullptr);
+  // Flattened curves.
+  EXPECT_TRUE(ScratchPath::bezier({{0, 0}, {10, 25}, {30, -20}, {40, 5}}, 1e-3).corners().empty());
+  EXPECT_TRUE(ScratchPath::arc({0, 0}, 5, 0, 3, 1e-3).corners().empty());
+  Rng r(7, Stream::Defect);
+  EXPECT_TRUE(randomKeyScratch(r, box(0, 0, 400, 250)).corners().empty());
+  SwirlOptions o;
+  o.count = 10;
+  for (const ScratchPath& a : randomWashSwirls(r, box(0, 0, 300, 200), o).arcs) EXPECT_TRUE(a.corners().empty());
+}
+
 TEST(ScratchPath, ArcLengthParameterisation) {
   ScratchPath p = ScratchPath::polyline({{0, 0}, {3, 4}, {3, 10}});
   EXPECT_DOUBLE_EQ(p.length(), 11.0);

@@ -186,11 +186,6 @@ void subtract(std::vector<Poly>& frags, const Poly& s, size_t cap, size_t& dropp
 
 namespace {
 
-struct HalfPlane {
-  Vec2d a;
-  double c;
-};
-
 // A zone of one groove: where its height is one plane (zero outside its facets).
 struct Zone {
   HalfPlane h[6];
@@ -289,25 +284,102 @@ void zonesOf(const Groove& g, std::vector<Zone>& zones) {
   }
 }
 
+// The height of the (plain) groove g at p, or 0 outside its length, where it has faded, and
+// beyond its profile.
+double grooveHeight(const Groove& g, Vec2d p) {
+  double t = g.t0 + g.tdir.x * p.x + g.tdir.y * p.y;
+  double r = 1 + g.rho * t;
+  if (t < g.t_lo || t > g.t_hi || !(r > 0)) return 0;
+  double u = (g.b0 + g.bdir.x * p.x + g.bdir.y * p.y) / r;
+  const std::vector<Vec2d>& P = *g.pts;
+  if (u <= P.front().x || u >= P.back().x) return 0;
+  size_t j = size_t(std::upper_bound(P.begin(), P.end(), u, [](double x, const Vec2d& q) { return x < q.x; }) - P.begin());
+  j = std::min(std::max<size_t>(j, 1), P.size() - 1);
+  const Vec2d &q0 = P[j - 1], &q1 = P[j];
+  return q1.x > q0.x ? r * (q0.y + (q1.y - q0.y) * (u - q0.x) / (q1.x - q0.x)) : r * q0.y;
+}
+
+// The part of a corner's groove whose domain holds p (the first, on a boundary), or null.
+const Groove* partAt(const Groove& g, Vec2d p) {
+  for (const Groove& q : *g.parts) {
+    bool in = true;
+    for (int k = 0; k < q.n_dom && in; ++k) in = q.dom[k].holds(p);
+    if (in) return &q;
+  }
+  return nullptr;
+}
+
 }  // namespace
 
 double Surface::heightAt(Vec2d p) const {
   double lo = 0, hi = 0;
   for (const Groove& g : grooves_) {
-    double t = g.t0 + g.tdir.x * p.x + g.tdir.y * p.y;
-    double r = 1 + g.rho * t;
-    if (t < g.t_lo || t > g.t_hi || !(r > 0)) continue;
-    double u = (g.b0 + g.bdir.x * p.x + g.bdir.y * p.y) / r;
-    const std::vector<Vec2d>& P = *g.pts;
-    if (u <= P.front().x || u >= P.back().x) continue;
-    size_t j = size_t(std::upper_bound(P.begin(), P.end(), u, [](double x, const Vec2d& q) { return x < q.x; }) - P.begin());
-    j = std::min(std::max<size_t>(j, 1), P.size() - 1);
-    const Vec2d &q0 = P[j - 1], &q1 = P[j];
-    double h = q1.x > q0.x ? r * (q0.y + (q1.y - q0.y) * (u - q0.x) / (q1.x - q0.x)) : r * q0.y;
+    const Groove* q = g.parts ? partAt(g, p) : &g;
+    if (!q) continue;
+    const double h = grooveHeight(*q, p);
     lo = std::min(lo, h);
     hi = std::max(hi, h);
   }
   return lo < 0 ? lo : hi;
+}
+
+bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::vector<Groove>& parts) {
+  parts.clear();
+  auto unit = [](Vec2d v) {
+    const double l = std::hypot(v.x, v.y);
+    return l > 0 ? v * (1.0 / l) : v;
+  };
+  const Vec2d ta = unit(in.tdir), tb = unit(out.tdir);
+  const double turn = std::atan2(ta.x * tb.y - ta.y * tb.x, ta.x * tb.x + ta.y * tb.y);
+  if (!(std::fabs(turn) >= 1e-6) || !(std::fabs(turn) <= kMaxCornerTurn) || !(max_sector > 0)) return false;
+  // The vertex: t = 0 and b = 0 on the leg before it.
+  const double det = in.tdir.x * in.bdir.y - in.tdir.y * in.bdir.x;
+  if (!(std::fabs(det) > 1e-12)) return false;
+  const Vec2d v((-in.t0 * in.bdir.y + in.b0 * in.tdir.y) / det, (-in.b0 * in.tdir.x + in.t0 * in.bdir.x) / det);
+  // The legs: each on its side of the bisector, t_in + t_out <= 0 before the corner (the two
+  // t's measured from the vertex along each leg; on the bisector they are opposite).
+  const HalfPlane before{in.tdir + out.tdir, in.t0 + out.t0};
+  Groove a = in, b = out;
+  a.parts = b.parts = nullptr;
+  a.t_hi = 0;
+  b.t_lo = 0;
+  a.dom[0] = before;
+  b.dom[0] = {before.a * -1.0, -before.c};
+  // (and each before or after the vertex along itself: past the end line the cap holds)
+  a.dom[1] = {in.tdir, in.t0};
+  b.dom[1] = {out.tdir * -1.0, -out.t0};
+  a.n_dom = b.n_dom = 2;
+  parts.push_back(a);
+  parts.push_back(b);
+  // The outer side: away from where the second leg goes, in the first one's b.
+  const double outer = (in.bdir.x * tb.x + in.bdir.y * tb.y) > 0 ? -1.0 : 1.0;
+  // The cap's rays run from the first leg's outer normal to the second's, turning with the path.
+  const Vec2d na = unit(in.bdir) * outer;
+  const int n = std::max(1, int(std::ceil(std::fabs(turn) / max_sector - 1e-9)));
+  const double half = 0.5 * turn / n, stretch = 1 / std::cos(half), tan_half = std::tan(std::fabs(half));
+  for (int k = 0; k < n; ++k) {
+    const double ang = half * (2 * k + 1);
+    const Vec2d u(na.x * std::cos(ang) - na.y * std::sin(ang), na.x * std::sin(ang) + na.y * std::cos(ang));
+    const Vec2d w(-u.y, u.x);  // across the ray
+    Groove c = in;
+    c.parts = nullptr;
+    c.rho = 0;
+    c.t_lo = -1e30;
+    c.t_hi = 1e30;
+    // b = outer (p - v).u / cos(half): the outer offset, on the sector's edges exactly its distance
+    // from the vertex, as on the legs' end lines.
+    c.bdir = u * (outer * stretch);
+    c.b0 = -(c.bdir.x * v.x + c.bdir.y * v.y);
+    c.tdir = w;
+    c.t0 = -(w.x * v.x + w.y * v.y);
+    // The wedge |(p - v).w| <= (p - v).u tan(half).
+    const Vec2d e1 = w - u * tan_half, e2 = w * -1.0 - u * tan_half;
+    c.dom[0] = {e1, -(e1.x * v.x + e1.y * v.y)};
+    c.dom[1] = {e2, -(e2.x * v.x + e2.y * v.y)};
+    c.n_dom = 2;
+    parts.push_back(c);
+  }
+  return true;
 }
 
 bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
@@ -326,50 +398,65 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   // Reused between calls: at the caps the cells take megabytes, and fresh buffers for every
   // footprint cost more in page faults than the clipping does.
   thread_local std::vector<Cell> cells, next;
-  thread_local std::vector<Zone> zones;
   cells.assign(1, Cell{});
   cells[0].poly = region;
   const size_t cell_cap = 4 * kMaxPieces;
+  thread_local std::vector<std::vector<Zone>> part_zones;
   for (size_t gi = 0; gi < grooves.size(); ++gi) {
-    const Groove& g = grooves[gi];
-    zonesOf(g, zones);
+    const Groove& g0 = grooves[gi];
+    // A corner's groove: each part over the part of the cell within its domain.
+    const size_t np = g0.parts ? g0.parts->size() : 1;
+    if (part_zones.size() < np) part_zones.resize(np);
+    for (size_t q = 0; q < np; ++q) zonesOf(g0.parts ? (*g0.parts)[q] : g0, part_zones[q]);
     next.clear();
-    for (const Cell& c : cells) {
-      // A cell wholly inside the groove's length where r > 0 (the common case) meets only the
-      // zones across it whose u range overlaps the cell's (u = b / r is extreme at vertices);
-      // one such zone takes the cell as it is.
-      bool inside = true;
-      double umin = 1e300, umax = -1e300;
-      for (int k = 0; k < c.poly.n && inside; ++k) {
-        Vec2d q = c.poly.v[size_t(k)];
-        double t = g.t0 + g.tdir.x * q.x + g.tdir.y * q.y, r = 1 + g.rho * t;
-        inside = t >= g.t_lo && t <= g.t_hi && r > 1e-9;
-        double u = (g.b0 + g.bdir.x * q.x + g.bdir.y * q.y) / r;
-        umin = std::min(umin, u);
-        umax = std::max(umax, u);
-      }
-      int overlapping = 0;
-      if (inside)
-        for (const Zone& z : zones) overlapping += z.across && z.ulo <= umax && z.uhi >= umin;
-      for (const Zone& z : zones) {
-        if (inside && (!z.across || z.ulo > umax || z.uhi < umin)) continue;
-        Poly p = c.poly;
-        if (inside) {
-          if (overlapping > 1)
-            for (int k = z.n_inside; k < z.nh && !p.empty(); ++k) p = clip(p, z.h[k].a, z.h[k].c);
-        } else {
-          for (int k = 0; k < z.nh && !p.empty(); ++k) p = clip(p, z.h[k].a, z.h[k].c);
+    for (const Cell& c : cells)
+      for (size_t q = 0; q < np; ++q) {
+        const Groove& g = g0.parts ? (*g0.parts)[q] : g0;
+        const std::vector<Zone>& zones = part_zones[q];
+        thread_local Poly clipped;
+        const Poly* src = &c.poly;
+        if (g.n_dom) {
+          clipped = c.poly;
+          for (int k = 0; k < g.n_dom && !clipped.empty(); ++k) clipped = clip(clipped, g.dom[k].a, g.dom[k].c);
+          if (clipped.empty() || clipped.area() <= kSliver) continue;
+          src = &clipped;
         }
-        if (p.empty() || p.area() <= kSliver) continue;
-        if (next.size() >= cell_cap) return false;
-        next.push_back(c);
-        Cell& n = next.back();
-        n.poly = p;
-        n.f[gi] = z.plane;
-        n.layer[gi] = z.layer;
-        n.zero[gi] = z.zero;
+        const Poly& cp = *src;
+        // A cell wholly inside the groove's length where r > 0 (the common case) meets only the
+        // zones across it whose u range overlaps the cell's (u = b / r is extreme at vertices);
+        // one such zone takes the cell as it is.
+        bool inside = true;
+        double umin = 1e300, umax = -1e300;
+        for (int k = 0; k < cp.n && inside; ++k) {
+          Vec2d v = cp.v[size_t(k)];
+          double t = g.t0 + g.tdir.x * v.x + g.tdir.y * v.y, r = 1 + g.rho * t;
+          inside = t >= g.t_lo && t <= g.t_hi && r > 1e-9;
+          double u = (g.b0 + g.bdir.x * v.x + g.bdir.y * v.y) / r;
+          umin = std::min(umin, u);
+          umax = std::max(umax, u);
+        }
+        int overlapping = 0;
+        if (inside)
+          for (const Zone& z : zones) overlapping += z.across && z.ulo <= umax && z.uhi >= umin;
+        for (const Zone& z : zones) {
+          if (inside && (!z.across || z.ulo > umax || z.uhi < umin)) continue;
+          Poly p = cp;
+          if (inside) {
+            if (overlapping > 1)
+              for (int k = z.n_inside; k < z.nh && !p.empty(); ++k) p = clip(p, z.h[k].a, z.h[k].c);
+          } else {
+            for (int k = 0; k < z.nh && !p.empty(); ++k) p = clip(p, z.h[k].a, z.h[k].c);
+          }
+          if (p.empty() || p.area() <= kSliver) continue;
+          if (next.size() >= cell_cap) return false;
+          next.push_back(c);
+          Cell& n = next.back();
+          n.poly = p;
+          n.f[gi] = z.plane;
+          n.layer[gi] = z.layer;
+          n.zero[gi] = z.zero;
+        }
       }
-    }
     cells.swap(next);
   }
   // In each cell every groove's height is one plane f_i (f = 0 for the base). The composite is the
@@ -479,13 +566,16 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
         const Vec2d q = e0 + t * f;
         step = step || heightAt(q + n * kStep) > pc.plane.at(q) + kTall;
       }
-      for (size_t gi = 0; gi < grooves.size() && !step; ++gi) {
-        const Groove& g = grooves[gi];
-        const double ta = g.t0 + g.tdir.x * e0.x + g.tdir.y * e0.y, tb = g.t0 + g.tdir.x * e1.x + g.tdir.y * e1.y;
-        for (double te : {g.t_lo, g.t_hi})  // an end line where the cross-section has not faded out
-          step = step || (std::fabs(te) < 1e29 && 1 + g.rho * te > 1e-9 && std::fabs(ta - te) < 1e-9 &&
-                          std::fabs(tb - te) < 1e-9);
-      }
+      // (A corner's parts: each leg's end line at the vertex is checked too; the cap beyond it
+      // meets it without a step, so no wall is found there.)
+      for (size_t gi = 0; gi < grooves.size() && !step; ++gi)
+        for (size_t q = 0; q < (grooves[gi].parts ? grooves[gi].parts->size() : 1) && !step; ++q) {
+          const Groove& g = grooves[gi].parts ? (*grooves[gi].parts)[q] : grooves[gi];
+          const double ta = g.t0 + g.tdir.x * e0.x + g.tdir.y * e0.y, tb = g.t0 + g.tdir.x * e1.x + g.tdir.y * e1.y;
+          for (double te : {g.t_lo, g.t_hi})  // an end line where the cross-section has not faded out
+            step = step || (std::fabs(te) < 1e29 && 1 + g.rho * te > 1e-9 && std::fabs(ta - te) < 1e-9 &&
+                            std::fabs(tb - te) < 1e-9);
+        }
       if (!step) continue;
       // The pieces beyond: the edge moved kStep outwards, clipped to each (tau in [0, 1] along it).
       const Vec2d s0 = e0 + n * kStep;

@@ -73,6 +73,13 @@ struct Plane {
   Vec3d normal() const;  // unit, z > 0
 };
 
+// The half-plane a.p + c <= 0.
+struct HalfPlane {
+  Vec2d a{0, 0};
+  double c = 0;
+  bool holds(Vec2d p) const { return a.x * p.x + a.y * p.y + c <= 0; }
+};
+
 // One groove near the footprint. The groove's own coordinates of a point p: b(p) = b0 + p.bdir
 // across (b > 0: the profile's +b side), t(p) = t0 + p.tdir along. The profile (points (b, w),
 // one layer per facet) holds at t = 0; along t it is scaled by r(t) = 1 + rho t (the force fade)
@@ -88,7 +95,30 @@ struct Groove {
   // that it cuts below the base plane. Null: a wall below the base shows its foot's layer.
   const std::vector<double>* interfaces = nullptr;
   int id = 0;  // caller's index
+  // A groove whose path turns a corner near the footprint is made of parts (cornerParts): each
+  // part a groove as above that holds only where its `dom` half-planes hold, their domains tiling
+  // the plane. Such a groove counts as one (one plane per cell, one id); its own fields other than
+  // `parts` and `id` are not used. A part's own `parts` is null.
+  const std::vector<Groove>* parts = nullptr;
+  HalfPlane dom[2];
+  int n_dom = 0;
 };
+
+// The parts of a groove that turns a corner at the point where `in` ends and `out` starts: `in`
+// along the path before the corner, with t = 0 at the vertex (t_hi = 0), `out` after it (t_lo =
+// 0, t = 0 at the vertex), each with its own frame, the same profile (the one at the vertex: r = 1
+// there) and id. The surface is the one the explicit geometry cuts (Scratch::height): each point
+// takes the cross-section at its closest point on the path, so the two legs meet along the
+// bisector of the corner on its inner side (each leg holds on its side of it), and around the
+// vertex on the outer side, where the vertex itself is the closest point, the profile's outer
+// half turns about the vertex. That cap is a fan of sectors no wider than `max_sector` (rad), each
+// a straight groove through the vertex clipped to its wedge, with its profile stretched by 1 /
+// cos(half the sector) so that neighbouring sectors and the legs meet without a step (the cap
+// lies within 1 - cos(max_sector / 2) of the round one in its radii). Appends the parts to `out_parts`
+// (cleared first). False (nothing appended) for a turn of less than 1e-6 rad or more than
+// kMaxCornerTurn, where the legs' bisector degenerates.
+constexpr double kMaxCornerTurn = 175.0 * 3.14159265358979323846 / 180.0;
+bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::vector<Groove>& out_parts);
 
 // A planar convex piece of the composite surface.
 struct Piece {

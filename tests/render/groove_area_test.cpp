@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/rng.h"
+#include "defects/scratch.h"
 #include "render/groove.h"
 
 namespace dg::groove::area {
@@ -30,8 +31,17 @@ Poly rect(double x0, double y0, double x1, double y1) {
 
 Vec3d unit(Vec3d v) { return v / length(v); }
 
-// A groove's height at p straight from its definition (independent of the pieces).
+// A groove's height at p straight from its definition (independent of the pieces). A corner's
+// groove: the part whose domain holds p.
 double grooveHeight(const Groove& g, Vec2d p) {
+  if (g.parts) {
+    for (const Groove& q : *g.parts) {
+      bool in = true;
+      for (int k = 0; k < q.n_dom; ++k) in = in && q.dom[k].a.x * p.x + q.dom[k].a.y * p.y + q.dom[k].c <= 0;
+      if (in) return grooveHeight(q, p);
+    }
+    return 0;
+  }
   double t = g.t0 + g.tdir.x * p.x + g.tdir.y * p.y;
   double b = g.b0 + g.bdir.x * p.x + g.bdir.y * p.y;
   double r = 1 + g.rho * t;
@@ -159,11 +169,40 @@ std::vector<Groove> shortAcross() {
   return {g, along({1, 0}, -0.02, 1)};
 }
 
+// Legs of a path that turns at v from direction ta to tb (unit), with t = 0 at v.
+std::pair<Groove, Groove> legs(Vec2d v, Vec2d ta, Vec2d tb) {
+  Groove a = along(ta, 0, 0), b = along(tb, 0, 0);
+  a.t0 = -(ta.x * v.x + ta.y * v.y);
+  a.b0 = -(a.bdir.x * v.x + a.bdir.y * v.y);
+  b.t0 = -(tb.x * v.x + tb.y * v.y);
+  b.b0 = -(b.bdir.x * v.x + b.bdir.y * v.y);
+  return {a, b};
+}
+
+Vec2d dirOf(double deg) { return Vec2d(std::cos(deg * M_PI / 180), std::sin(deg * M_PI / 180)); }
+
+// A path turning right by 120 degrees just off the footprint's centre.
+std::vector<Groove> corner() {
+  static std::vector<Groove> parts;
+  auto [a, b] = legs({0.005, -0.01}, dirOf(20), dirOf(-100));
+  EXPECT_TRUE(cornerParts(a, b, 15 * M_PI / 180, parts));
+  Groove g;
+  g.parts = &parts;
+  return {g};
+}
+
 class Layouts : public ::testing::TestWithParam<int> {
  protected:
   std::vector<Groove> grooves() const {
-    return GetParam() == 0 ? crossing() : GetParam() == 1 ? taperedEnd() : shortAcross();
+    switch (GetParam()) {
+      case 0: return crossing();
+      case 1: return taperedEnd();
+      case 2: return shortAcross();
+      default: return corner();
+    }
   }
+  // The crossing and the short groove's abrupt ends step; the tapered end and the corner do not.
+  bool stepped() const { return GetParam() == 0 || GetParam() == 2; }
   Vec3d view() const { return unit({0.35, -0.25, 1.0}); }
 };
 
@@ -192,7 +231,7 @@ TEST_P(Layouts, PiecesTileTheRegionWithTheCompositeHeight) {
   // Steps in the composite: a groove's edge against the other's pile-up (crossings) and the
   // abrupt ends; the tapered end has none. Each wall is at most two bands (below and above the
   // base plane) of at most three leaning triangles.
-  EXPECT_EQ(s.walls().empty(), GetParam() == 1);
+  EXPECT_EQ(s.walls().empty(), !stepped());
   EXPECT_LE(walls, 6 * s.walls().size());
   EXPECT_GE(walls, s.walls().size());
   for (const Surface::Wall& w : s.walls()) {
@@ -228,7 +267,7 @@ TEST_P(Layouts, VisibleAndLitSharesMatchRayMarching) {
   double wall_share = 0;
   for (const Portion& p : vis) wall_share += s.pieces()[size_t(p.piece)].wall ? p.weight : 0.0;
   EXPECT_NEAR(wsum, 1.0, s.walls().empty() ? 1e-9 : 3e-4);
-  EXPECT_EQ(wall_share > 0, GetParam() != 1) << wall_share;  // walls are seen where there are any
+  EXPECT_EQ(wall_share > 0, stepped()) << wall_share;  // walls are seen where there are any
   // Brute force: a grid of viewing lines through the footprint; the first surface point along
   // each (marched down from above), then whether it sees the light.
   const int n = 80;
@@ -401,7 +440,64 @@ TEST_P(Layouts, GrazingDirectionsStayFinite) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(CrossingAndEnds, Layouts, ::testing::Values(0, 1, 2));
+INSTANTIATE_TEST_SUITE_P(CrossingEndsAndCorner, Layouts, ::testing::Values(0, 1, 2, 3));
+
+// A path that turns a corner: the pieces against the surface the explicit geometry cuts
+// (Scratch::height: the profile at the signed distance to the path's closest point, which is the
+// vertex itself on the corner's outer side), for turns either way from 30 to 170 degrees. The
+// round outer side is a fan of 15-degree sectors: within 0.4 (the profile's steepest slope) x
+// 0.07 mm (its half-width) x (1 / cos 7.5 degrees - 1) = 2.4e-4 mm of it. One straight groove
+// through the vertex (the leg before it, carried on) is off by far more.
+TEST(GrooveArea, ACornersPiecesFollowTheClosestPointOnThePath) {
+  auto profileAt = [](double b) {
+    const auto& P = kProfile;
+    if (b <= P.front().x || b >= P.back().x) return 0.0;
+    for (size_t j = 0; j + 1 < P.size(); ++j)
+      if (b >= P[j].x && b <= P[j + 1].x) return P[j].y + (P[j + 1].y - P[j].y) * (b - P[j].x) / (P[j + 1].x - P[j].x);
+    return 0.0;
+  };
+  for (double turn : {30.0, 90.0, 150.0, 170.0, -60.0, -120.0}) {
+    const Vec2d v(0.01, 0.02), ta = dirOf(10), tb = dirOf(10 + turn);
+    auto [a, b] = legs(v, ta, tb);
+    std::vector<Groove> parts;
+    ASSERT_TRUE(cornerParts(a, b, 15 * M_PI / 180, parts));
+    EXPECT_EQ(parts.size(), 2 + size_t(std::ceil(std::fabs(turn) / 15 - 1e-9)));
+    Groove g;
+    g.parts = &parts;
+    Surface s, straight;
+    ASSERT_TRUE(s.build(rect(-0.2, -0.2, 0.2, 0.2), {g}));
+    Groove on = a;
+    on.t_hi = 1e30;
+    ASSERT_TRUE(straight.build(rect(-0.2, -0.2, 0.2, 0.2), {on}));
+    EXPECT_TRUE(s.walls().empty());
+    const ScratchPath path = ScratchPath::polyline({v - ta, v, v + tb});
+    double worst = 0, worst_straight = 0, area = 0;
+    for (const Piece& pc : s.pieces()) area += pc.wall ? 0.0 : pc.poly.area();
+    EXPECT_NEAR(area, 0.16, 1e-9);
+    for (int j = 0; j <= 80; ++j)
+      for (int i = 0; i <= 80; ++i) {
+        const Vec2d p(-0.15 + 0.3 * (i + 0.31) / 81, -0.15 + 0.3 * (j + 0.57) / 81);
+        const PathPoint pp = path.closest(Vec2f(float(p.x), float(p.y)));
+        const double want = profileAt(double(pp.offset));
+        const int k = pieceAt(s, p), ks = pieceAt(straight, p);
+        ASSERT_GE(k, 0);
+        ASSERT_GE(ks, 0);
+        worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
+        worst_straight = std::max(worst_straight, std::fabs(straight.pieces()[size_t(ks)].plane.at(p) - want));
+      }
+    std::printf("[          ] turn %4.0f: %zu parts, height off by at most %.2e mm (one straight groove %.2e)\n", turn,
+                parts.size(), worst, worst_straight);
+    EXPECT_LT(worst, 2.5e-4) << "turn " << turn;
+    EXPECT_GT(worst_straight, 0.01) << "turn " << turn;
+  }
+  // Straight on, or doubling back past kMaxCornerTurn: no corner.
+  std::vector<Groove> parts;
+  auto [a, b] = legs({0, 0}, dirOf(10), dirOf(10));
+  EXPECT_FALSE(cornerParts(a, b, 0.26, parts));
+  auto [c, d] = legs({0, 0}, dirOf(10), dirOf(188));
+  EXPECT_FALSE(cornerParts(c, d, 0.26, parts));
+  EXPECT_TRUE(parts.empty());
+}
 
 // A groove that stops abruptly at x = 0: the wall across its end (the V's cross-section, 0.001
 // mm^2) is seen, lit and hit like any other piece, with the shares that its geometry gives.

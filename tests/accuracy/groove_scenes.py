@@ -215,6 +215,20 @@ LAYOUTS["tips"] = """
 # The ends layout's five scratches with blunt ends (no fade): each groove stops at full depth at its
 # end line.
 LAYOUTS["blunt"] = LAYOUTS["ends"].replace("fade_mm: 0.6", "fade_mm: 0")
+# One scratch given point by point (pattern: path) that turns four corners in view, by 90 degrees
+# to the left, 105 and 120 to the right and 135 to the left, its legs 0.9 to 1.1 mm long: each
+# corner round on its outer side and creased along its bisector on the inner one, two of them
+# within a shadow reach of each other (docs/grooves.md, "Corners"). Seen at 3 degrees.
+LAYOUTS["zigzag"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5, 0.5]
+    path_mm: [-4, -0.4, -0.6, -0.4, -0.6, 0.5, 0.5, 0.2, -0.2, -0.5, 4, -0.5]
+    force_kg: 2
+    hardness_hv: 30
+"""
 
 LIGHTS = {
     # Bright field through a glass part: a 12 x 12 mm panel 50 mm below the plate, facing up, which

@@ -180,6 +180,21 @@ class GrooveAccuracy(unittest.TestCase):
         print("blunt     ring  largest dE %.2f" % st["max"], flush=True)
         self.assertLess(st["max"], 6.0)
 
+    def test_corners_ring(self):
+        """A scratch that turns four corners (groove_scenes.LAYOUTS["zigzag"]) under the ring light:
+        polygons give each corner its two legs and the round outer side (docs/grooves.md,
+        "Corners"). Until 2026-11-29 the groove at a corner was one straight line, and the outer
+        side of each corner a blunt spur: 1.07% of pixels >= 10 (mean dE 0.59); now 0% (0.18).
+        Bounded at 0.25%, which the old renderer fails under either light."""
+        st = self.check("zigzag", "ring", fov_deg=3)
+        self.assertLess(st["pct_ge_10"], 0.25)
+
+    def test_corners_bar(self):
+        """The same under the bar light: 0.61% of pixels >= 10 (mean dE 0.50) before the
+        corners, now 0% (0.25)."""
+        st = self.check("zigzag", "bar", fov_deg=3)
+        self.assertLess(st["pct_ge_10"], 0.25)
+
     def test_dense_crossings_bar(self):
         """Six scratches crossed by six (groove_scenes.LAYOUTS["dense"]) under the bar light: at the
         full shadow reach a crossing's pieces pass their cap; the polygons are then built over

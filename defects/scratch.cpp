@@ -89,6 +89,22 @@ const ScratchPath::Corner* ScratchPath::nearestCorner(Vec2d p, double max_dist) 
   return best;
 }
 
+const ScratchPath::Corner* ScratchPath::cornerAround(double s, Vec2d p, double max_dist) const {
+  auto after = std::lower_bound(corners_.begin(), corners_.end(), s, [](const Corner& c, double v) { return c.s < v; });
+  const Corner* best = nullptr;
+  double best_d = max_dist;
+  auto consider = [&](const Corner& c) {
+    const double d = len2(c.p - p);
+    if (d <= best_d) {
+      best_d = d;
+      best = &c;
+    }
+  };
+  if (after != corners_.begin()) consider(*(after - 1));
+  if (after != corners_.end()) consider(*after);
+  return best;
+}
+
 ScratchPath ScratchPath::sub(double s0, double s1) const {
   const double L = length();
   s0 = std::clamp(s0, 0.0, L);

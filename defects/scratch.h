@@ -88,6 +88,10 @@ class ScratchPath {
   const std::vector<Corner>& corners() const { return corners_; }
   // The corner nearest p within max_dist, or null.
   const Corner* nearestCorner(Vec2d p, double max_dist) const;
+  // Of the two corners around arc position s (the last at or before it and the first at or after
+  // it, so that the segment at s is one of the corner's legs), the nearer to p within max_dist, or
+  // null.
+  const Corner* cornerAround(double s, Vec2d p, double max_dist) const;
 
  private:
   void finish();  // arc lengths, box, float copy, segment grid

@@ -326,6 +326,16 @@ TEST(ScratchPath, CornersAreTheVerticesThatTurn) {
   EXPECT_EQ(z.nearestCorner({1.1, 0.1}, 0.5), &cs[0]);
   EXPECT_EQ(z.nearestCorner({1.9, 1.6}, 0.5), &cs[2]);
   EXPECT_EQ(z.nearestCorner({1.1, 0.6}, 0.5), nullptr);
+  // Around an arc position: the corners at the ends of its segment, whichever is nearer p. On the
+  // first leg (s < 1) only the corner at its end; on the third (from (1.1, 2) to (2, 1.5)) the
+  // corners at both ends, but not the first corner, however near p is to it.
+  EXPECT_EQ(z.cornerAround(0.5, {1, 0.2}, 0.5), &cs[0]);
+  EXPECT_EQ(z.cornerAround(0.5, {0, 0}, 0.5), nullptr);
+  const double s3 = cs[1].s + 0.3;
+  EXPECT_EQ(z.cornerAround(s3, {1.2, 1.9}, 2.0), &cs[1]);
+  EXPECT_EQ(z.cornerAround(s3, {1.9, 1.6}, 2.0), &cs[2]);
+  EXPECT_EQ(z.cornerAround(s3, {0.9, 0.9}, 5.0), &cs[1]);  // cs[0] is nearer, but not next to s3
+  EXPECT_EQ(z.cornerAround(cs[2].s, {2, 1.5}, 0.1), &cs[2]);
   EXPECT_EQ(z.nearestCorner({5, 5}, 0.5), nullptr);
   // Flattened curves.
   EXPECT_TRUE(ScratchPath::bezier({{0, 0}, {10, 25}, {30, -20}, {40, 5}}, 1e-3).corners().empty());

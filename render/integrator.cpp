@@ -1076,7 +1076,7 @@ class Tracer {
         rep.push_back(i);
       }
     }
-    // A corner of a path within the footprint (its groove's half-width of the vertex): polygons,
+    // Both legs of a path's corner within a groove's width of the footprint (nearCorner): polygons,
     // which give the corner its two legs and its round outer side; past their caps, as below.
     if (st_.groove_polygons && nearCorner(sp, near)) {
       sets.emplace_back();
@@ -1284,8 +1284,8 @@ class Tracer {
   // A corner of ng's path at either end of its closest point's segment (ScratchPath::cornerAround:
   // the footprint's own leg is one of its two), within `reach` (uv) of the footprint's centre: the
   // groove as its two legs, each straight along its segment at the vertex, and the round outer side
-  // between them (groove::area::cornerParts), in the frame of gs, with the cross-section and its
-  // slope along the path at the vertex. Its profile is appended to `profiles` (reserved by the
+  // between them (groove::area::cornerParts), in the frame of gs, with the cross-section at the
+  // vertex. Its profile is appended to `profiles` (reserved by the
   // caller). False where there is none, or the path has faded out at the vertex.
   static constexpr double kCornerSector = 15.0 * M_PI / 180.0;
   static bool cornerGroove(const SurfacePoint& sp, const NearGroove& ng, int id, float reach, const GrooveSet& gs,
@@ -1319,6 +1319,11 @@ class Tracer {
     };
     groove::area::Groove a, b;
     if (!leg(c->t_in, a) || !leg(c->t_out, b)) return false;
+    // The footprint's own leg takes its scale linear from the vertex to the closest point, where it
+    // is then exact, as without a corner (a perturbed or fading path's scale is far from linear
+    // over a leg).
+    const double t_fp = (double(ng.pp.s) - c->s) * mm;
+    if (std::fabs(t_fp) > 1e-6) (t_fp < 0 ? a : b).rho = (double(ng.sc->scaleAt(ng.pp.s)) / double(k) - 1) / t_fp;
     // Each leg up to the path's end or its next corner, where it stops. (Run on straight, it
     // stood out past that corner as a spur: the corner fuzzer's c1_18, three corners within 0.7 mm,
     // 1.35% of pixels >= 10 that way, 0.09% now; docs/grooves.md, "Corners".)

@@ -969,7 +969,8 @@ class Tracer {
       if (ng.sc->path().corners().empty()) continue;
       const double r = double(fpr) + 2 * ng.sc->referenceProfile().halfExtent() * double(ng.sc->maxScale());
       // Within r of both legs: within r / sin(half the angle between them) of the vertex.
-      const ScratchPath::Corner* c = ng.sc->path().nearestCorner(F, r / std::sin(0.5 * (M_PI - kMaxTurn)));
+      const ScratchPath::Corner* c =
+          ng.sc->path().nearestCorner(F, r / std::sin(0.5 * (M_PI - groove::area::kMaxCornerTurn)));
       if (!c) continue;
       const Vec2d d = F - c->p;
       const double la = std::max(0.0, -(d.x * c->t_in.x + d.y * c->t_in.y));
@@ -979,8 +980,6 @@ class Tracer {
     }
     return false;
   }
-  static constexpr double kMaxTurn = groove::area::kMaxCornerTurn;
-
   // Orthonormal frame of a groove at a hit: T from the UV tangent, W the (unperturbed) normal,
   // B along the UV chart's W x T direction (so that the profile's b > 0 is the path's left, also
   // on a mirrored chart).
@@ -1076,17 +1075,25 @@ class Tracer {
         rep.push_back(i);
       }
     }
-    // Both legs of a path's corner within a groove's width of the footprint (nearCorner): polygons,
-    // which give the corner its two legs and its round outer side; past their caps, as below.
-    if (st_.groove_polygons && nearCorner(sp, near)) {
+    // Polygons over all the grooves near the footprint, in a set of their own. Where they cannot be
+    // built, `capped` says whether the caps were why (without polygons every crossing goes to the
+    // blend), and `tried` that they need not be tried again: the same grooves give the same result.
+    bool capped = true, tried = false;
+    auto polygons = [&] {
+      tried = true;
       sets.emplace_back();
       if (buildArea(sp, near, ref, enlarge, view_reach, sets.back())) {
         sets.back().area = true;
         ++(sets.back().trimmed ? counts_.trimmed : counts_.polygons);
         return true;
       }
+      capped = sets.back().capped;
       recycle(sets);
-    }
+      return false;
+    };
+    // Both legs of a path's corner within a groove's width of the footprint (nearCorner): polygons,
+    // which give the corner its two legs and its round outer side; past their caps, as below.
+    if (st_.groove_polygons && nearCorner(sp, near) && polygons()) return true;
     // One direction: the whole footprint is one section (the common case, and Bosch's).
     if (rep.size() == 1) {
       sets.emplace_back();
@@ -1097,7 +1104,10 @@ class Tracer {
       // An end inside the footprint: polygons, unless past their caps (then the end blend).
       if (sets.back().end_share < 1.0f) {
         GrooveSet& gs = sets.back();
-        gs.area = st_.groove_polygons && buildArea(sp, near, ref, enlarge, view_reach, gs);
+        if (tried)
+          gs.capped = capped;
+        else
+          gs.area = st_.groove_polygons && buildArea(sp, near, ref, enlarge, view_reach, gs);
         ++(gs.area ? (gs.trimmed ? counts_.trimmed : counts_.polygons)
                    : (!st_.groove_polygons || gs.capped ? counts_.fallbacks : counts_.sections));
       } else {
@@ -1106,17 +1116,7 @@ class Tracer {
       return true;
     }
     // Crossings: polygons over all the grooves near the footprint.
-    bool capped = true;  // without polygons every crossing goes to the blend
-    if (st_.groove_polygons) {
-      sets.emplace_back();
-      if (buildArea(sp, near, ref, enlarge, view_reach, sets.back())) {
-        sets.back().area = true;
-        ++(sets.back().trimmed ? counts_.trimmed : counts_.polygons);
-        return true;
-      }
-      capped = sets.back().capped;
-      recycle(sets);
-    }
+    if (st_.groove_polygons && !tried && polygons()) return true;
     // The blend below; counted as a fallback where the polygons were past their caps, else with
     // the sections (no groove had a cross-section within the polygons' region).
     ++(capped ? counts_.fallbacks : counts_.sections);
@@ -1281,6 +1281,21 @@ class Tracer {
     return added;
   }
 
+  // g in the frame of gs: its direction t_uv on the surface at sp, its profile, layers and id (its
+  // position, scale slope and ends are the caller's). False where the frame degenerates.
+  static bool placeGroove(const SurfacePoint& sp, const GrooveSet& gs, Vec2f t_uv, const Profile& prof,
+                          const Scratch& sc, int id, groove::area::Groove& g) {
+    Vec3f Ti, Bi, Wi;
+    if (!grooveFrame(sp, t_uv, Ti, Bi, Wi)) return false;
+    g.tdir = Vec2d(dot(Ti, gs.T), dot(Ti, gs.B));
+    g.bdir = Vec2d(dot(Bi, gs.T), dot(Bi, gs.B));
+    g.pts = &prof.pts;
+    g.layer = &prof.layer;
+    g.interfaces = &sc.interfaces();
+    g.id = id;
+    return true;
+  }
+
   // A corner of ng's path at either end of its closest point's segment (ScratchPath::cornerAround:
   // the footprint's own leg is one of its two), within `reach` (uv) of the footprint's centre: the
   // groove as its two legs, each straight along its segment at the vertex, and the round outer side
@@ -1304,17 +1319,10 @@ class Tracer {
     profiles.push_back(surfaceProfile(*ng.sc, k, mm));
     const Vec2d d = F - c->p;  // from the vertex to the footprint's centre (uv)
     auto leg = [&](Vec2d t, groove::area::Groove& g) {
-      Vec3f Ti, Bi, Wi;
-      if (!grooveFrame(sp, Vec2f(float(t.x), float(t.y)), Ti, Bi, Wi)) return false;
-      g.tdir = Vec2d(dot(Ti, gs.T), dot(Ti, gs.B));
-      g.bdir = Vec2d(dot(Bi, gs.T), dot(Bi, gs.B));
+      if (!placeGroove(sp, gs, Vec2f(float(t.x), float(t.y)), profiles.back(), *ng.sc, id, g)) return false;
       g.t0 = (d.x * t.x + d.y * t.y) * mm;
       g.b0 = (d.y * t.x - d.x * t.y) * mm;  // d . B, B = (-t.y, t.x)
       g.rho = rho;
-      g.pts = &profiles.back().pts;
-      g.layer = &profiles.back().layer;
-      g.interfaces = &ng.sc->interfaces();
-      g.id = id;
       return true;
     };
     groove::area::Groove a, b;
@@ -1385,49 +1393,41 @@ class Tracer {
     const float along_uv = float((fp_r + std::max(double(view_reach), double(enlarge)) + 1e-3) / mm);
     for (size_t i = 0; i < near.size(); ++i) {
       NearGroove ng = near[i];
-      ga::Groove cg;
-      if (cornerGroove(sp, ng, int(i), along_uv * float(M_SQRT2), gs, mm, profiles, corner_parts[i], cg)) {
-        const auto& q = profiles.back().pts;
-        grooves.push_back(cg);
-        near_mm.push_back(double(ng.pp.distance) * mm - std::max(std::fabs(q.front().x), std::fabs(q.back().x)));
-        segs.push_back(cg);
-        seg_at.push_back(segs.size());
-        continue;
-      }
-      float k = ng.sc->scaleAt(ng.pp.s);
-      if (!(k > 0) && !(k = depthInward(sp, along_uv, ng))) continue;
-      Vec3f Ti, Bi, Wi;
-      if (!grooveFrame(sp, ng.pp.tangent, Ti, Bi, Wi)) continue;
-      profiles.push_back(surfaceProfile(ng, float(mm)));
       ga::Groove g;
-      g.tdir = Vec2d(dot(Ti, gs.T), dot(Ti, gs.B));
-      g.bdir = Vec2d(dot(Bi, gs.T), dot(Bi, gs.B));
-      Vec2f rel = sp.uv - ng.pp.point;
-      g.t0 = double(rel.x * ng.pp.tangent.x + rel.y * ng.pp.tangent.y) * mm;
-      g.b0 = double(ng.pp.offset) * mm;
-      g.rho = scaleSlope(ng, k, mm);  // per mm of surface
-      const double len = ng.sc->path().length();
-      g.t_lo = -double(ng.pp.s) * mm;
-      g.t_hi = (len - double(ng.pp.s)) * mm;
-      g.pts = &profiles.back().pts;
-      g.layer = &profiles.back().layer;
-      g.interfaces = &ng.sc->interfaces();
-      g.id = int(i);
+      // A corner within the region: its legs and cap (cornerGroove), whole. Else the groove along
+      // its tangent at the closest point, in pieces where its scale is far from linear.
+      const bool corner = cornerGroove(sp, ng, int(i), along_uv * float(M_SQRT2), gs, mm, profiles, corner_parts[i], g);
+      float k = 0;
+      if (!corner) {
+        k = ng.sc->scaleAt(ng.pp.s);
+        if (!(k > 0) && !(k = depthInward(sp, along_uv, ng))) continue;
+        profiles.push_back(surfaceProfile(ng, float(mm)));
+        if (!placeGroove(sp, gs, ng.pp.tangent, profiles.back(), *ng.sc, int(i), g)) continue;
+        Vec2f rel = sp.uv - ng.pp.point;
+        g.t0 = double(rel.x * ng.pp.tangent.x + rel.y * ng.pp.tangent.y) * mm;
+        g.b0 = double(ng.pp.offset) * mm;
+        g.rho = scaleSlope(ng, k, mm);  // per mm of surface
+        const double len = ng.sc->path().length();
+        g.t_lo = -double(ng.pp.s) * mm;
+        g.t_hi = (len - double(ng.pp.s)) * mm;
+      }
       // How near the footprint's centre the cross-section comes (mm; <= 0 over it).
       const auto& q = profiles.back().pts;
-      const double dist = double(ng.pp.distance) * mm - std::max(std::fabs(q.front().x), std::fabs(q.back().x));
       grooves.push_back(g);
-      near_mm.push_back(dist);
-      // A scale error that moves the groove's height by less than twice the footprint's radius
-      // over the steepest light's tangent moves no shadow edge by more than that: the tangent is
-      // kept. (With one footprint radius instead of two the ends scenes of the accuracy test,
-      // whose 0.6 mm fades change none of their figures either way, took 1.3-1.4 times their
-      // time at 1 spp; with two, 1.2 times.)
-      const auto& rp = ng.sc->referenceProfile().pts;
-      double h_ref = 0;
-      for (const Vec2d& v : rp) h_ref = std::max(h_ref, std::fabs(v.y));
-      const float tol_abs = h_ref > 0 ? float(2 * fp_r / (double(tan_light_max_) * h_ref)) : 1e30f;
-      scaleSegments(ng, k, g, along_uv * float(M_SQRT2), mm, tol_abs, profiles, segs);
+      near_mm.push_back(double(ng.pp.distance) * mm - std::max(std::fabs(q.front().x), std::fabs(q.back().x)));
+      if (corner) {
+        segs.push_back(g);
+      } else {
+        // A scale error that moves the groove's height by less than twice the footprint's radius
+        // over the steepest light's tangent moves no shadow edge by more than that: the tangent is
+        // kept. (With one footprint radius instead of two the ends scenes of the accuracy test,
+        // whose 0.6 mm fades change none of their figures either way, took 1.3-1.4 times their
+        // time at 1 spp; with two, 1.2 times.)
+        const Profile& rp = ng.sc->referenceProfile();
+        const double h_ref = std::max(rp.depth(), rp.peakHeight());
+        const float tol_abs = h_ref > 0 ? float(2 * fp_r / (double(tan_light_max_) * h_ref)) : 1e30f;
+        scaleSegments(ng, k, g, along_uv * float(M_SQRT2), mm, tol_abs, profiles, segs);
+      }
       seg_at.push_back(segs.size());
     }
     if (grooves.empty()) return false;

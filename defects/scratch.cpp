@@ -230,41 +230,86 @@ void ScratchPath::closestOnSegment(size_t i, Vec2f p, float& best_d2, size_t& be
   }
 }
 
+template <class Visit>
+bool ScratchPath::forSegmentsNear(Vec2f p, float max_dist, Visit&& visit) const {
+  if (!(gx_ > 0 && std::isfinite(max_dist))) return false;
+  // Cell indices clamped in float first, so far-away queries cannot overflow the int cast.
+  auto cellOf = [](float v, float lo, float c, int n) { return int(std::floor(clampf((v - lo) / c, -1.0f, float(n)))); };
+  int x0 = cellOf(p.x - max_dist, box_.lo.x, cell_w_, gx_);
+  int x1 = cellOf(p.x + max_dist, box_.lo.x, cell_w_, gx_);
+  int y0 = cellOf(p.y - max_dist, box_.lo.y, cell_h_, gy_);
+  int y1 = cellOf(p.y + max_dist, box_.lo.y, cell_h_, gy_);
+  if (x1 < 0 || y1 < 0 || x0 >= gx_ || y0 >= gy_) return true;  // nothing near
+  x0 = std::max(x0, 0);
+  y0 = std::max(y0, 0);
+  x1 = std::min(x1, gx_ - 1);
+  y1 = std::min(y1, gy_ - 1);
+  if (size_t(x1 - x0 + 1) * size_t(y1 - y0 + 1) >= pts_.size() - 1) return false;  // a scan is cheaper
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      size_t c = size_t(y) * gx_ + x;
+      for (uint32_t k = cell_start_[c]; k < cell_start_[c + 1]; ++k) visit(size_t(cell_seg_[k]));
+    }
+  return true;
+}
+
 PathPoint ScratchPath::closest(Vec2f p, float max_dist) const {
-  PathPoint r;
-  if (pts_.size() < 2) return r;
+  if (pts_.size() < 2) return PathPoint();
   float best_d2 = std::numeric_limits<float>::infinity();
   size_t best_i = pts_.size();
   float best_t = 0;
-  size_t nseg = pts_.size() - 1;
-  bool scanned = false;
-  if (gx_ > 0 && std::isfinite(max_dist)) {
-    // Cell indices clamped in float first, so far-away queries cannot overflow the int cast.
-    auto cellOf = [](float v, float lo, float c, int n) {
-      return int(std::floor(clampf((v - lo) / c, -1.0f, float(n))));
-    };
-    int x0 = cellOf(p.x - max_dist, box_.lo.x, cell_w_, gx_);
-    int x1 = cellOf(p.x + max_dist, box_.lo.x, cell_w_, gx_);
-    int y0 = cellOf(p.y - max_dist, box_.lo.y, cell_h_, gy_);
-    int y1 = cellOf(p.y + max_dist, box_.lo.y, cell_h_, gy_);
-    if (x1 < 0 || y1 < 0 || x0 >= gx_ || y0 >= gy_) return r;
-    x0 = std::max(x0, 0);
-    y0 = std::max(y0, 0);
-    x1 = std::min(x1, gx_ - 1);
-    y1 = std::min(y1, gy_ - 1);
-    if (size_t(x1 - x0 + 1) * size_t(y1 - y0 + 1) < nseg) {
-      for (int y = y0; y <= y1; ++y)
-        for (int x = x0; x <= x1; ++x) {
-          size_t c = size_t(y) * gx_ + x;
-          for (uint32_t k = cell_start_[c]; k < cell_start_[c + 1]; ++k)
-            closestOnSegment(cell_seg_[k], p, best_d2, best_i, best_t);
-        }
-      scanned = true;
-    }
-  }
-  if (!scanned)
+  const size_t nseg = pts_.size() - 1;
+  if (!forSegmentsNear(p, max_dist, [&](size_t i) { closestOnSegment(i, p, best_d2, best_i, best_t); }))
     for (size_t i = 0; i < nseg; ++i) closestOnSegment(i, p, best_d2, best_i, best_t);
-  if (best_i >= nseg) return r;
+  if (best_i >= nseg) return PathPoint();
+  return pointOn(p, best_i, best_t, best_d2, max_dist);
+}
+
+void ScratchPath::closestBranches(Vec2f p, float max_dist, std::vector<PathPoint>& out) const {
+  out.clear();
+  if (pts_.size() < 2) return;
+  const size_t nseg = pts_.size() - 1;
+  // The segments within max_dist (the test closest makes), in path order.
+  thread_local std::vector<size_t> within;
+  within.clear();
+  auto test = [&](size_t i) {
+    float d2 = std::numeric_limits<float>::infinity(), t = 0;
+    size_t j = nseg;
+    closestOnSegment(i, p, d2, j, t);
+    if (std::sqrt(d2) <= max_dist) within.push_back(i);
+  };
+  if (!forSegmentsNear(p, max_dist, test))
+    for (size_t i = 0; i < nseg; ++i) test(i);
+  if (within.empty()) return;
+  std::sort(within.begin(), within.end());
+  within.erase(std::unique(within.begin(), within.end()), within.end());
+  // Runs of consecutive segments; the closest point of each. The run that holds the path's
+  // closest point goes first, so that out[0] is closest(p, max_dist).
+  size_t first = 0;
+  float first_d2 = std::numeric_limits<float>::infinity();
+  for (size_t a = 0; a < within.size();) {
+    size_t b = a + 1;
+    while (b < within.size() && within[b] == within[b - 1] + 1) ++b;
+    float d2 = std::numeric_limits<float>::infinity(), t = 0;
+    size_t i = nseg;
+    for (size_t k = a; k < b; ++k) closestOnSegment(within[k], p, d2, i, t);
+    PathPoint pp = pointOn(p, i, t, d2, max_dist);
+    if (pp.found) {
+      // (Strictly nearer: on a tie the lower segment, as in closest.)
+      if (d2 < first_d2) {
+        first_d2 = d2;
+        first = out.size();
+      }
+      out.push_back(pp);
+    }
+    a = b;
+  }
+  if (first > 0) std::rotate(out.begin(), out.begin() + std::ptrdiff_t(first), out.begin() + std::ptrdiff_t(first) + 1);
+}
+
+PathPoint ScratchPath::pointOn(Vec2f p, size_t best_i, float best_t, float best_d2, float max_dist) const {
+  PathPoint r;
+  const size_t nseg = pts_.size() - 1;
   float dist = std::sqrt(best_d2);
   if (dist > max_dist) return r;
 

@@ -73,6 +73,11 @@ class ScratchPath {
   // (Bosch §4 / digest §1.5.1: a uniform grid, here per path) and found = false when the path is
   // farther than max_dist; with the default it is an exhaustive scan.
   PathPoint closest(Vec2f p, float max_dist = std::numeric_limits<float>::infinity()) const;
+  // The closest point of each branch of the path near p: a branch is a run of consecutive
+  // segments that each come within max_dist of p, so a path that leaves that disc and comes back
+  // into it (a hairpin, a loop, a path that crosses itself) has one branch for each pass. out[0]
+  // is closest(p, max_dist), the others follow in path order; empty when nothing is that near.
+  void closestBranches(Vec2f p, float max_dist, std::vector<PathPoint>& out) const;
 
   // An interior vertex where the path turns by at least kCornerTurn (rad): a polyline's corner, or
   // a kink between two cubic curves (the small turns of a flattened curve stay below it). The
@@ -96,6 +101,14 @@ class ScratchPath {
  private:
   void finish();  // arc lengths, box, float copy, segment grid
   void closestOnSegment(size_t i, Vec2f p, float& best_d2, size_t& best_i, float& best_t) const;
+  // Calls visit(i) for each segment in the grid cells within max_dist of p (some more than once);
+  // false, having called nothing, where the path has no grid, max_dist is infinite or a scan of
+  // every segment is cheaper.
+  template <class Visit>
+  bool forSegmentsNear(Vec2f p, float max_dist, Visit&& visit) const;
+  // The PathPoint of the point at parameter t of segment i, d2 its squared distance from p (not
+  // found past max_dist).
+  PathPoint pointOn(Vec2f p, size_t i, float t, float d2, float max_dist) const;
   std::vector<Vec2d> pts_;
   std::vector<double> arc_;
   std::vector<Vec2f> ptsf_;

@@ -420,6 +420,78 @@ TEST(ScratchPath, ClosestPointAgainstBruteForce) {
   }
 }
 
+// A path that passes a point more than once has one branch per pass: a hairpin, a loop that
+// crosses itself, and a long curve against dense samples of it.
+TEST(ScratchPath, BranchesAreThePassesNearAPoint) {
+  std::vector<PathPoint> b;
+  // A hairpin: out along y = 1, round at x = 5, back along y = -1.
+  const ScratchPath hairpin = ScratchPath::polyline({{-5, 1}, {5, 1}, {5, -1}, {-5, -1}});
+  hairpin.closestBranches({0, 0}, 1.5f, b);
+  ASSERT_EQ(b.size(), 2u);
+  EXPECT_NEAR(b[0].s, 5, 1e-5);  // a tie: the lower segment first, as closest has it
+  EXPECT_NEAR(b[1].s, 17, 1e-5);
+  EXPECT_NEAR(b[1].tangent.x, -1, 1e-6);
+  EXPECT_NEAR(b[1].offset, -1, 1e-6);  // (0, 0) is right of the way back
+  EXPECT_EQ(b[0].s, hairpin.closest({0, 0}, 1.5f).s);
+  hairpin.closestBranches({0, 0}, 6.0f, b);  // the turn within reach too: one pass
+  EXPECT_EQ(b.size(), 1u);
+  hairpin.closestBranches({0, 0}, 0.5f, b);
+  EXPECT_TRUE(b.empty());
+  // A loop that crosses itself at the origin: the nearer pass first.
+  const ScratchPath loop = ScratchPath::polyline({{-4, -3}, {4, 3}, {4, -3}, {-4, 3}});
+  loop.closestBranches({0.1f, -0.01f}, 0.5f, b);
+  ASSERT_EQ(b.size(), 2u);
+  EXPECT_NEAR(b[0].tangent.x, -0.8, 1e-6);  // the way back, y = -0.75 x: 0.052 away
+  EXPECT_NEAR(b[0].distance, 0.052, 1e-6);
+  EXPECT_NEAR(b[1].tangent.x, 0.8, 1e-6);  // the way out, y = 0.75 x: 0.068
+  EXPECT_NEAR(b[1].distance, 0.068, 1e-6);
+  EXPECT_NEAR(b[1].s, 5.0 + 0.8 * 0.1 + 0.6 * -0.01, 1e-5);
+  // A curve (the segment grid in use): the first branch is closest's, every branch is the
+  // nearest point of a run of the path within reach, and there are as many as dense samples show.
+  const ScratchPath p =
+      ScratchPath::bezier({{5, 5}, {20, 40}, {40, -20}, {60, 20}, {70, 40}, {40, 50}, {30, 30}}, 1e-3);
+  const int N = 100000;
+  std::vector<double> d(N + 1);
+  Rng rng(11, Stream::Test);
+  int several = 0;
+  for (int k = 0; k < 300; ++k) {
+    // Within reach of a random point of the path.
+    const float r = 3.0f + 17.0f * float(rng.uniformD());
+    const double ang = 2 * M_PI * rng.uniformD(), off = double(r) * rng.uniformD();
+    const Vec2d q = p.pointAt(p.length() * rng.uniformD()) + Vec2d(std::cos(ang), std::sin(ang)) * off;
+    for (int i = 0; i <= N; ++i) {
+      const Vec2d a = p.pointAt(p.length() * i / N);
+      d[size_t(i)] = std::hypot(a.x - q.x, a.y - q.y);
+    }
+    auto runs = [&](double reach) {
+      int n = 0;
+      for (int i = 0; i <= N; ++i) n += d[size_t(i)] <= reach && (i == 0 || d[size_t(i - 1)] > reach);
+      return n;
+    };
+    p.closestBranches(Vec2f(float(q.x), float(q.y)), r, b);
+    const PathPoint c = p.closest(Vec2f(float(q.x), float(q.y)), r);
+    ASSERT_EQ(b.empty(), !c.found);
+    if (b.empty()) continue;
+    EXPECT_EQ(b[0].s, c.s);
+    EXPECT_EQ(b[0].distance, c.distance);
+    EXPECT_EQ(b[0].offset, c.offset);
+    const int lo = runs(r - 1e-2), hi = runs(r + 1e-2);
+    EXPECT_GE(int(b.size()), std::min(lo, hi)) << k;
+    EXPECT_LE(int(b.size()), std::max(lo, hi)) << k;
+    several += b.size() > 1;
+    for (size_t j = 1; j < b.size(); ++j) {
+      EXPECT_GE(b[j].distance, b[0].distance);
+      EXPECT_LE(b[j].distance, r);
+      // Its own run's nearest: no sample within 0.5 of it along the path is nearer.
+      const int i0 = int(std::lround(b[j].s / p.length() * N));
+      for (int i = std::max(0, i0 - 500); i <= std::min(N, i0 + 500); ++i)
+        EXPECT_GE(d[size_t(i)], b[j].distance - 1e-3);
+      if (j > 1) EXPECT_GT(b[j].s, b[j - 1].s);
+    }
+  }
+  EXPECT_GE(several, 10);  // the curve folds back: 15 of these points see it more than once
+}
+
 TEST(ScratchPath, SideAndEnds) {
   ScratchPath p = ScratchPath::polyline({{0, 0}, {10, 0}, {10, 10}});  // right, then up (left turn)
   PathPoint a = p.closest({5, 1});

@@ -382,6 +382,25 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
   return true;
 }
 
+void passParts(const Groove& a, const Groove& b, std::vector<Groove>& parts) {
+  parts.clear();
+  // u = b_a - b_b and v = b_a + b_b; pass a is the nearer where u v <= 0.
+  const HalfPlane u{a.bdir - b.bdir, a.b0 - b.b0}, v{a.bdir + b.bdir, a.b0 + b.b0};
+  const HalfPlane nu{u.a * -1.0, -u.c}, nv{v.a * -1.0, -v.c};
+  auto part = [&](const Groove& g, HalfPlane h1, HalfPlane h2) {
+    Groove q = g;
+    q.parts = nullptr;
+    q.dom[0] = h1;
+    q.dom[1] = h2;
+    q.n_dom = 2;
+    parts.push_back(q);
+  };
+  part(a, u, nv);   // u <= 0 <= v
+  part(a, nu, v);   // v <= 0 <= u
+  part(b, nu, nv);  // u, v >= 0
+  part(b, u, v);    // u, v <= 0
+}
+
 bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   pieces_.clear();
   cache_keys_ = 0;

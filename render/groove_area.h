@@ -120,6 +120,15 @@ struct Groove {
 constexpr double kMaxCornerTurn = 175.0 * 3.14159265358979323846 / 180.0;
 bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::vector<Groove>& out_parts);
 
+// The parts of a path that passes near the footprint twice (a hairpin's two legs, a loop that
+// crosses itself), `a` and `b` each straight along its pass, with the same id: the explicit
+// geometry takes each point's cross-section at the path's closest point (Scratch::height), so each
+// pass holds where it is the nearer, |b_a(p)| <= |b_b(p)|, and not the composite of the two that
+// two scratches make. The bisectors of the two lines, b_a - b_b = 0 and b_a + b_b = 0, cut the
+// plane into four wedges, two for each pass (parallel passes: one half-plane each, the other
+// bisector being at infinity). Appends the parts to `out_parts` (cleared first).
+void passParts(const Groove& a, const Groove& b, std::vector<Groove>& out_parts);
+
 // A planar convex piece of the composite surface.
 struct Piece {
   Poly poly;    // in (x, y)

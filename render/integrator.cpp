@@ -950,8 +950,14 @@ class Tracer {
       if (d.cls() != DefectClass::Scratch) return;
       const auto& sc = static_cast<const Scratch&>(d);
       float r = fpr + float(sc.referenceProfile().halfExtent()) * sc.maxScale() + reach_extra;
-      PathPoint pp = sc.path().closest(sp.uv, r);
-      if (pp.found && sc.maxScale() > 0) out.push_back({&sc, pp});
+      if (!(sc.maxScale() > 0)) return;
+      // One groove for each pass of the path near the footprint (a hairpin's two legs, a loop
+      // that crosses itself), each at its own closest point; the first is the path's closest.
+      // (With the closest point alone, a pass farther than that was missing from the footprint's
+      // surface, shadows and reflections: docs/grooves.md, "A path that comes back".)
+      thread_local std::vector<PathPoint> passes;
+      sc.path().closestBranches(sp.uv, r, passes);
+      for (const PathPoint& pp : passes) out.push_back({&sc, pp});
     });
   }
 
@@ -1391,7 +1397,29 @@ class Tracer {
     // reach the region below (uv units).
     const double fp_r = std::max(std::hypot(lo.x, lo.y), std::hypot(hi.x, hi.y));
     const float along_uv = float((fp_r + std::max(double(view_reach), double(enlarge)) + 1e-3) / mm);
+    // A path that passes the footprint more than once (nearGrooves) has a groove for each pass.
+    // Where one pass enters as a corner (cornerGroove) its legs run to the next corners, so
+    // another pass whose closest point lies on them is in it already; as a groove of its own it
+    // would also run straight past the corner. Such a pass is left out, unless it enters as a
+    // corner itself and comes first.
+    thread_local std::vector<char> in_corner;
+    in_corner.assign(near.size(), 0);
+    for (size_t i = 0; i < near.size(); ++i)
+      for (size_t j = 0; j < near.size() && !in_corner[i]; ++j) {
+        if (j == i || near[j].sc != near[i].sc) continue;
+        const ScratchPath& path = near[i].sc->path();
+        const Vec2d F(double(sp.uv.x), double(sp.uv.y));
+        const double reach = double(along_uv * float(M_SQRT2));
+        const ScratchPath::Corner* cj = path.cornerAround(double(near[j].pp.s), F, reach);
+        if (!cj) continue;
+        const auto& cs = path.corners();
+        const size_t ci = size_t(cj - cs.data());
+        const double s0 = ci > 0 ? cs[ci - 1].s : 0.0, s1 = ci + 1 < cs.size() ? cs[ci + 1].s : path.length();
+        const double si = double(near[i].pp.s);
+        in_corner[i] = si >= s0 && si <= s1 && (j < i || !path.cornerAround(si, F, reach));
+      }
     for (size_t i = 0; i < near.size(); ++i) {
+      if (in_corner[i]) continue;
       NearGroove ng = near[i];
       ga::Groove g;
       // A corner within the region: its legs and cap (cornerGroove), whole. Else the groove along
@@ -1429,6 +1457,33 @@ class Tracer {
         scaleSegments(ng, k, g, along_uv * float(M_SQRT2), mm, tol_abs, profiles, segs);
       }
       seg_at.push_back(segs.size());
+    }
+    // Two passes of one path, each straight and whole: one groove of parts (ga::passParts), each
+    // pass where it is the nearer, as the explicit geometry has them; as two grooves the composite
+    // would stand one pass's pile-up over the other's (docs/grooves.md, "A path that comes back").
+    thread_local std::vector<std::vector<ga::Groove>> pass_parts;
+    if (pass_parts.size() < grooves.size()) pass_parts.resize(grooves.size());  // (no reallocation below)
+    size_t npass = 0;
+    auto single = [&](size_t i) {
+      if (grooves[i].parts || seg_at[i + 1] - seg_at[i] != 1) return false;
+      const ga::Groove &g = grooves[i], &q = segs[seg_at[i]];  // (one piece, and the groove itself)
+      return q.pts == g.pts && q.t0 == g.t0 && q.rho == g.rho && q.t_lo == g.t_lo && q.t_hi == g.t_hi;
+    };
+    for (size_t a = 0; a < grooves.size(); ++a) {
+      if (!single(a)) continue;
+      for (size_t b = a + 1; b < grooves.size(); ++b) {
+        if (!single(b) || near[size_t(grooves[b].id)].sc != near[size_t(grooves[a].id)].sc) continue;
+        ga::passParts(grooves[a], grooves[b], pass_parts[npass]);
+        grooves[a].parts = &pass_parts[npass++];
+        segs[seg_at[a]] = grooves[a];
+        near_mm[a] = std::min(near_mm[a], near_mm[b]);
+        grooves.erase(grooves.begin() + long(b));
+        near_mm.erase(near_mm.begin() + long(b));
+        segs.erase(segs.begin() + long(seg_at[b]));
+        seg_at.erase(seg_at.begin() + long(b) + 1);
+        for (size_t k = b + 1; k < seg_at.size(); ++k) --seg_at[k];
+        break;
+      }
     }
     if (grooves.empty()) return false;
     // The region whose surface can be seen, or can hide or shadow what is seen (§4.2.1): the

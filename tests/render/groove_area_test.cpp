@@ -499,6 +499,71 @@ TEST(GrooveArea, ACornersPiecesFollowTheClosestPointOnThePath) {
   EXPECT_TRUE(parts.empty());
 }
 
+// A path that passes the region twice, with its vertices far outside it: a loop that crosses
+// itself at 40 and 90 degrees, a hairpin whose legs' pile-ups overlap (0.11 mm apart, each 0.14
+// mm wide) and one whose legs are 3 degrees apart. The surface of passParts is the explicit
+// geometry's (the profile at the path's closest point) to rounding; two grooves composited, as two
+// scratches would be, stand one pass's pile-up over the other's groove.
+TEST(GrooveArea, APathsTwoPassesEachHoldWhereTheyAreTheNearer) {
+  auto profileAt = [](double b) {
+    const auto& P = kProfile;
+    if (b <= P.front().x || b >= P.back().x) return 0.0;
+    for (size_t j = 0; j + 1 < P.size(); ++j)
+      if (b >= P[j].x && b <= P[j + 1].x) return P[j].y + (P[j + 1].y - P[j].y) * (b - P[j].x) / (P[j + 1].x - P[j].x);
+    return 0.0;
+  };
+  // Each pass: a point on it and its direction; the path runs along the first, turns far away
+  // and comes back along the second.
+  struct Case {
+    const char* name;
+    Vec2d pa, ta, pb, tb;
+  };
+  const Case cases[] = {
+      {"crossing at 40 degrees", {0.01, -0.005}, dirOf(20), {0.01, -0.005}, dirOf(160)},
+      {"crossing at 90 degrees", {-0.02, 0.01}, dirOf(-45), {-0.02, 0.01}, dirOf(225)},
+      {"hairpin", {0, 0.055}, dirOf(0), {0, -0.055}, dirOf(180)},
+      {"hairpin, 3 degrees", {0, 0.055}, dirOf(1.5), {0, -0.055}, dirOf(178.5)},
+  };
+  for (const Case& c : cases) {
+    auto pass = [](Vec2d p, Vec2d t) {
+      Groove g = along(t, 0, 7);
+      g.t0 = -(t.x * p.x + t.y * p.y);
+      g.b0 = -(g.bdir.x * p.x + g.bdir.y * p.y);
+      return g;
+    };
+    const Groove a = pass(c.pa, c.ta), b = pass(c.pb, c.tb);
+    std::vector<Groove> parts;
+    passParts(a, b, parts);
+    ASSERT_EQ(parts.size(), 4u);
+    Groove g;
+    g.parts = &parts;
+    g.id = 7;
+    Surface s, composite;
+    ASSERT_TRUE(s.build(rect(-0.2, -0.2, 0.2, 0.2), {g}));
+    ASSERT_TRUE(composite.build(rect(-0.2, -0.2, 0.2, 0.2), {a, b}));
+    double area = 0;
+    for (const Piece& pc : s.pieces()) area += pc.wall ? 0.0 : pc.poly.area();
+    EXPECT_NEAR(area, 0.16, 1e-9) << c.name;
+    // The path: out along pass a, round far outside the region, back along pass b.
+    const Vec2d a0 = c.pa - c.ta * 20, a1 = c.pa + c.ta * 20, b0 = c.pb - c.tb * 20, b1 = c.pb + c.tb * 20;
+    const ScratchPath path = ScratchPath::polyline({a0, a1, b0, b1});
+    double worst = 0, worst_composite = 0;
+    for (int j = 0; j <= 80; ++j)
+      for (int i = 0; i <= 80; ++i) {
+        const Vec2d p(-0.15 + 0.3 * (i + 0.31) / 81, -0.15 + 0.3 * (j + 0.57) / 81);
+        const double want = profileAt(double(path.closest(Vec2f(float(p.x), float(p.y))).offset));
+        const int k = pieceAt(s, p), kc = pieceAt(composite, p);
+        ASSERT_GE(k, 0);
+        ASSERT_GE(kc, 0);
+        worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
+        worst_composite = std::max(worst_composite, std::fabs(composite.pieces()[size_t(kc)].plane.at(p) - want));
+      }
+    std::printf("[          ] %s: height off by at most %.2e mm (composite %.2e)\n", c.name, worst, worst_composite);
+    EXPECT_LT(worst, 1e-5) << c.name;
+    EXPECT_GT(worst_composite, 1e-3) << c.name;
+  }
+}
+
 // A groove that stops abruptly at x = 0: the wall across its end (the V's cross-section, 0.001
 // mm^2) is seen, lit and hit like any other piece, with the shares that its geometry gives.
 TEST(GrooveArea, AnAbruptEndsWallIsSeenLitAndHit) {

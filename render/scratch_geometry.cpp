@@ -388,6 +388,11 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
     };
     std::vector<std::array<End, 2>> ends;
     std::vector<std::vector<char>> kinks;  // per scratch in `near`: which profile vertices' kinks cut the cell
+    // Per scratch in `near` whose path passes the cell more than once (ScratchPath::closestBranches:
+    // a hairpin, a loop that crosses itself): each pass's line (a point and its unit tangent)
+    // at the cell's centre; empty for one pass.
+    std::vector<std::vector<std::pair<Vec2d, Vec2d>>> passes;
+    std::vector<PathPoint> branches;
     std::vector<uint32_t> tris;
     std::vector<std::vector<Vtx>> polys, next;
     constexpr uint32_t kNoVertex = ~uint32_t(0);
@@ -402,6 +407,19 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
     auto eval = [&](Vec2d q) {
       KinkValues f;
       const Vec2f p(float(q.x), float(q.y));
+      // Before all others, where a path passing more than once hands over from one pass to the
+      // next (Scratch::height takes the closest point): |b_i| - |b_j| for each two of its passes,
+      // b the signed distance from the pass's line. Within each side the closest point is on one
+      // pass and the kinks below are affine.
+      for (const auto& ps : passes)
+        for (size_t i = 0; i < ps.size(); ++i)
+          for (size_t j = i + 1; j < ps.size(); ++j) {
+            auto dist = [&](const std::pair<Vec2d, Vec2d>& l) {
+              const Vec2d d = q - l.first;
+              return std::fabs(d.x * l.second.y - d.y * l.second.x);
+            };
+            f.push_back(dist(ps[i]) - dist(ps[j]));
+          }
       // First every scratch's own kinks, then where two trade places: h_a - h_b is affine only
       // within pieces that are already on one facet of each (cut the other way round, the chord
       // of its bent zero set would leave pieces straddling it).
@@ -495,10 +513,24 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
             last = pts[i].x;
         }
       }
-      // Cells where the composite height can jump (two scratches meet, or an abrupt end is near)
-      // get exact facets up to the jump lines and walls along them (below).
+      // The passes of each path that comes back into the cell's reach.
+      passes.assign(near.size(), {});
+      bool passing = false;
+      for (size_t k = 0; k < near.size(); ++k) {
+        const float half_diag = float(0.5 * std::hypot(q11.x - q00.x, q11.y - q00.y));
+        const float reach = float(near[k]->referenceProfile().halfExtent()) * near[k]->maxScale() + half_diag;
+        near[k]->path().closestBranches(Vec2f(float(0.5 * (q00.x + q11.x)), float(0.5 * (q00.y + q11.y))), reach,
+                                        branches);
+        if (branches.size() < 2) continue;
+        for (const PathPoint& b : branches)
+          passes[k].push_back({Vec2d(b.point.x, b.point.y), Vec2d(b.tangent.x, b.tangent.y)});
+        passing = true;
+      }
+      // Cells where the composite height can jump (two scratches meet, two passes of one path with
+      // different scales meet, or an abrupt end is near) get exact facets up to the jump lines and
+      // walls along them (below).
       ends.assign(near.size(), {});
-      jumpy = near.size() >= 2;
+      jumpy = near.size() >= 2 || passing;
       for (size_t k = 0; k < near.size(); ++k) {
         const ScratchPath& path = near[k]->path();
         const float half = float(near[k]->referenceProfile().halfExtent()) * near[k]->maxScale();

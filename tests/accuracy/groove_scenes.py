@@ -230,6 +230,20 @@ LAYOUTS["zigzag"] = """
     hardness_hv: 30
 """
 
+# A scratch whose path comes back across itself (docs/grooves.md, "A path that comes back"): one
+# cubic curve that loops, crossing its own way at 78 degrees 0.27 mm below the loop's top, where
+# the two passes' grooves overlap (seen at 3 degrees).
+LAYOUTS["loop"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: bezier
+    center: [0.5, 0.5]
+    path_mm: [-9, -3.65, 12, 1.75, -12, 1.75, 9, -3.65]
+    force_kg: 2
+    hardness_hv: 30
+"""
+
 LIGHTS = {
     # Bright field through a glass part: a 12 x 12 mm panel 50 mm below the plate, facing up, which
     # the flat glass shows whole; a groove's facets refract the view off it.

@@ -195,6 +195,24 @@ class GrooveAccuracy(unittest.TestCase):
         st = self.check("zigzag", "bar", fov_deg=3)
         self.assertLess(st["pct_ge_10"], 0.25)
 
+    def test_loop_ring(self):
+        """A scratch whose path loops back across itself (groove_scenes.LAYOUTS["loop"]: a cubic
+        curve crossing its own way at 78 degrees, seen at 3 degrees) under the ring light. Each pass
+        of the path near a footprint is a groove, and where their cross-sections overlap each
+        holds where it is the nearer, as in the reference (docs/grooves.md, "A path that comes
+        back"). Until 2026-11-29 a footprint saw only the pass nearest it: 0.033% of pixels >= 10
+        (mean dE 0.177) here, now 0% (0.163). Bounded at 0.15%, which the old renderer fails under
+        the bar."""
+        st = self.check("loop", "ring", fov_deg=3)
+        self.assertLess(st["pct_ge_10"], 0.15)
+
+    def test_loop_bar(self):
+        """The same under the bar light: 0.206% of pixels >= 10 (mean dE 0.341) before, now 0.065%
+        (0.286). Before, the other pass's walls neither shadowed nor lit the footprint, and at the
+        crossing the explicit geometry's step between the two passes' depths was missing."""
+        st = self.check("loop", "bar", fov_deg=3)
+        self.assertLess(st["pct_ge_10"], 0.15)
+
     def test_dense_crossings_bar(self):
         """Six scratches crossed by six (groove_scenes.LAYOUTS["dense"]) under the bar light: at the
         full shadow reach a crossing's pieces pass their cap; the polygons are then built over

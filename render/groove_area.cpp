@@ -382,10 +382,14 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
   return true;
 }
 
-void passParts(const Groove& a, const Groove& b, std::vector<Groove>& parts) {
+bool passParts(const Groove& a, const Groove& b, std::vector<Groove>& parts) {
   parts.clear();
   // u = b_a - b_b and v = b_a + b_b; pass a is the nearer where u v <= 0.
   const HalfPlane u{a.bdir - b.bdir, a.b0 - b.b0}, v{a.bdir + b.bdir, a.b0 + b.b0};
+  // One of them zero everywhere: the passes lie on one line (a path going back over itself), and
+  // the four wedges would not tile the plane.
+  auto zero = [](const HalfPlane& h) { return std::hypot(h.a.x, h.a.y) <= 1e-12 && std::fabs(h.c) <= 1e-12; };
+  if (zero(u) || zero(v)) return false;
   const HalfPlane nu{u.a * -1.0, -u.c}, nv{v.a * -1.0, -v.c};
   auto part = [&](const Groove& g, HalfPlane h1, HalfPlane h2) {
     Groove q = g;
@@ -399,6 +403,7 @@ void passParts(const Groove& a, const Groove& b, std::vector<Groove>& parts) {
   part(a, nu, v);   // v <= 0 <= u
   part(b, nu, nv);  // u, v >= 0
   part(b, u, v);    // u, v <= 0
+  return true;
 }
 
 bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {

@@ -126,8 +126,10 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
 // pass holds where it is the nearer, |b_a(p)| <= |b_b(p)|, and not the composite of the two that
 // two scratches make. The bisectors of the two lines, b_a - b_b = 0 and b_a + b_b = 0, cut the
 // plane into four wedges, two for each pass (parallel passes: one half-plane each, the other
-// bisector being at infinity). Appends the parts to `out_parts` (cleared first).
-void passParts(const Groove& a, const Groove& b, std::vector<Groove>& out_parts);
+// bisector being at infinity). Appends the parts to `out_parts` (cleared first). False (nothing
+// appended) where the two lie on one line (within 1e-12 mm): the same groove twice, whose
+// composite is either.
+bool passParts(const Groove& a, const Groove& b, std::vector<Groove>& out_parts);
 
 // A planar convex piece of the composite surface.
 struct Piece {

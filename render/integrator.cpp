@@ -1473,7 +1473,7 @@ class Tracer {
       if (!single(a)) continue;
       for (size_t b = a + 1; b < grooves.size(); ++b) {
         if (!single(b) || near[size_t(grooves[b].id)].sc != near[size_t(grooves[a].id)].sc) continue;
-        ga::passParts(grooves[a], grooves[b], pass_parts[npass]);
+        if (!ga::passParts(grooves[a], grooves[b], pass_parts[npass])) continue;
         grooves[a].parts = &pass_parts[npass++];
         segs[seg_at[a]] = grooves[a];
         near_mm[a] = std::min(near_mm[a], near_mm[b]);

@@ -533,7 +533,7 @@ TEST(GrooveArea, APathsTwoPassesEachHoldWhereTheyAreTheNearer) {
     };
     const Groove a = pass(c.pa, c.ta), b = pass(c.pb, c.tb);
     std::vector<Groove> parts;
-    passParts(a, b, parts);
+    ASSERT_TRUE(passParts(a, b, parts));
     ASSERT_EQ(parts.size(), 4u);
     Groove g;
     g.parts = &parts;
@@ -562,6 +562,13 @@ TEST(GrooveArea, APathsTwoPassesEachHoldWhereTheyAreTheNearer) {
     EXPECT_LT(worst, 1e-5) << c.name;
     EXPECT_GT(worst_composite, 1e-3) << c.name;
   }
+  // A path going back over itself: the same line twice, either way round, is no pair of passes.
+  std::vector<Groove> parts;
+  const Groove g = along(dirOf(30), 0.01, 7);
+  Groove back = along(dirOf(210), -0.01, 7);
+  EXPECT_FALSE(passParts(g, back, parts));
+  EXPECT_FALSE(passParts(g, g, parts));
+  EXPECT_TRUE(parts.empty());
 }
 
 // A groove that stops abruptly at x = 0: the wall across its end (the V's cross-section, 0.001

@@ -460,6 +460,49 @@ Profile Profile::withLayers(const LayerStack& stack) const {
   return out;
 }
 
+void Profile::keepSide(double bc, bool below) {
+  std::vector<Vec2d>& P = pts;
+  std::vector<int>& L = layer;
+  if (P.size() < 2 || (below ? bc >= P.back().x : bc <= P.front().x)) return;  // all kept
+  if (below ? bc <= P.front().x : bc >= P.back().x) {
+    P.clear();
+    L.clear();
+    return;
+  }
+  // The facet k across bc: P[k].x < bc <= P[k + 1].x (below), P[k].x <= bc < P[k + 1].x (above).
+  size_t k = 0;
+  if (below)
+    while (P[k + 1].x < bc) ++k;
+  else
+    while (P[k + 1].x <= bc) ++k;
+  const Vec2d a = P[k], b = P[k + 1];
+  const double h = a.y + (b.y - a.y) * (bc - a.x) / (b.x - a.x);
+  const int lk = k < L.size() ? L[k] : 0;
+  std::vector<Vec2d> np;
+  std::vector<int> nl;
+  if (below) {
+    np.assign(P.begin(), P.begin() + long(k) + 1);
+    nl.assign(L.begin(), L.begin() + long(std::min(k, L.size())));
+    np.push_back({bc, h});
+    nl.push_back(lk);
+    if (h != 0) {
+      np.push_back({bc, 0.0});
+      nl.push_back(lk);
+    }
+  } else {
+    if (h != 0) {
+      np.push_back({bc, 0.0});
+      nl.push_back(lk);
+    }
+    np.push_back({bc, h});
+    nl.push_back(lk);
+    np.insert(np.end(), P.begin() + long(k) + 1, P.end());
+    if (L.size() > k + 1) nl.insert(nl.end(), L.begin() + long(k) + 1, L.end());
+  }
+  P = std::move(np);
+  L = std::move(nl);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Process model (Bosch §3.2.2)
 // ---------------------------------------------------------------------------------------------

@@ -168,6 +168,11 @@ struct Profile {
   // Copy with facets split where they cross a layer interface, each facet assigned the layer at
   // its mid-depth; facets above the base surface (pile-up) show the top layer.
   Profile withLayers(const LayerStack& stack) const;
+  // Keeps the part on one side of b = bc (b <= bc with `below`, else b >= bc), closed by a
+  // vertical facet to the base at bc of the layer of the facet cut there; no points left where
+  // nothing is on that side. (Where two passes of one path overlap, the renderer's sections keep
+  // each on its side of their midline: the nearer pass, as Scratch::height takes it.)
+  void keepSide(double bc, bool below);
 };
 
 // Process model, Bosch §3.2 (digest §1.4.2), equation by equation.

@@ -280,6 +280,45 @@ TEST(ScratchProfile, ExplicitPolylineAndLayers) {
 
 // ---- paths ------------------------------------------------------------------------------------
 
+// A profile cut at b: the kept side's heights are the profile's, the other side is the base, and
+// a vertical facet of the cut facet's layer closes it.
+TEST(ScratchProfile, KeepSideCutsAtAVerticalFacet) {
+  Profile p;
+  p.pts = {{-0.07, 0}, {-0.06, 0.004}, {-0.05, 0}, {0, -0.02}, {0.05, 0}, {0.06, 0.004}, {0.07, 0}};
+  p.layer = {0, 0, 1, 2, 0, 0};
+  for (double bc : {-0.065, -0.03, 0.0, 0.02, 0.05, 0.055})
+    for (bool below : {true, false}) {
+      Profile q = p;
+      q.keepSide(bc, below);
+      ASSERT_GE(q.pts.size(), 2u);
+      ASSERT_EQ(q.layer.size(), q.pts.size() - 1);
+      for (size_t k = 0; k + 1 < q.pts.size(); ++k) EXPECT_LE(q.pts[k].x, q.pts[k + 1].x);
+      EXPECT_EQ(q.pts.front().y, 0.0);
+      EXPECT_EQ(q.pts.back().y, 0.0);
+      for (int i = 0; i <= 200; ++i) {
+        const double b = -0.08 + 0.16 * (i + 0.37) / 201;
+        const bool kept = below ? b < bc : b > bc;
+        EXPECT_NEAR(q.heightAt(b), kept ? p.heightAt(b) : 0.0, 1e-12) << bc << " " << below << " " << b;
+      }
+      // The vertical facet at bc (none where the profile is on the base there).
+      const size_t v = below ? q.pts.size() - 2 : 0;
+      EXPECT_EQ(q.pts[v + (below ? 1 : 0)].x, bc);
+      if (p.heightAt(bc) != 0) {
+        EXPECT_EQ(q.pts[v + (below ? 0 : 1)].x, bc);
+      }
+    }
+  Profile q = p;
+  q.keepSide(0.02, true);
+  EXPECT_EQ(q.layer.back(), 2);  // the wall down from (0, -0.02) to (0.05, 0) is layer 2
+  q = p;
+  q.keepSide(-0.09, true);  // nothing below
+  EXPECT_TRUE(q.pts.empty());
+  q = p;
+  q.keepSide(0.09, true);  // all of it
+  ASSERT_EQ(q.pts.size(), p.pts.size());
+  for (size_t k = 0; k < p.pts.size(); ++k) EXPECT_EQ(q.pts[k].x, p.pts[k].x);
+}
+
 TEST(ScratchPath, BezierFlatteningErrorBound) {
   Vec2d c[4] = {{0, 0}, {10, 25}, {30, -20}, {40, 5}};
   for (double tol : {1e-1, 1e-2, 1e-3}) {
@@ -486,7 +525,9 @@ TEST(ScratchPath, BranchesAreThePassesNearAPoint) {
       const int i0 = int(std::lround(b[j].s / p.length() * N));
       for (int i = std::max(0, i0 - 500); i <= std::min(N, i0 + 500); ++i)
         EXPECT_GE(d[size_t(i)], b[j].distance - 1e-3);
-      if (j > 1) EXPECT_GT(b[j].s, b[j - 1].s);
+      if (j > 1) {
+        EXPECT_GT(b[j].s, b[j - 1].s);
+      }
     }
   }
   EXPECT_GE(several, 10);  // the curve folds back: 15 of these points see it more than once

@@ -244,6 +244,20 @@ LAYOUTS["loop"] = """
     hardness_hv: 30
 """
 
+# A path that turns back beside itself (seen at 3 degrees; the turn, 6 mm away, out of view): its
+# two legs 0.12 mm apart, their grooves (0.14 mm wide) overlapping, each holding on its side of
+# the midline as the nearer pass.
+LAYOUTS["hairpin"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5, 0.5]
+    path_mm: [-4, 0.06, 6, 0.06, 6, -0.06, -4, -0.06]
+    force_kg: 2
+    hardness_hv: 30
+"""
+
 LIGHTS = {
     # Bright field through a glass part: a 12 x 12 mm panel 50 mm below the plate, facing up, which
     # the flat glass shows whole; a groove's facets refract the view off it.

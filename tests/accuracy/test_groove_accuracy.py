@@ -213,6 +213,21 @@ class GrooveAccuracy(unittest.TestCase):
         st = self.check("loop", "bar", fov_deg=3)
         self.assertLess(st["pct_ge_10"], 0.15)
 
+    def test_hairpin_ring(self):
+        """A path that turns back beside itself (groove_scenes.LAYOUTS["hairpin"]: legs 0.12 mm
+        apart whose grooves overlap, the turn out of view) under the ring light. In the sections
+        each leg holds on its side of their midline, as in the reference (docs/grooves.md, "A path
+        that comes back"). Until 2026-11-29 a footprint saw only the nearer leg: 3.81% of pixels
+        >= 10 (mean dE 1.35), past the target; now 0% (0.14). Bounded at 0.25%."""
+        st = self.check("hairpin", "ring", fov_deg=3)
+        self.assertLess(st["pct_ge_10"], 0.25)
+
+    def test_hairpin_bar(self):
+        """The same under the bar light: 2.21% of pixels >= 10 (mean dE 1.12) before, now 0.033%
+        (0.30)."""
+        st = self.check("hairpin", "bar", fov_deg=3)
+        self.assertLess(st["pct_ge_10"], 0.25)
+
     def test_dense_crossings_bar(self):
         """Six scratches crossed by six (groove_scenes.LAYOUTS["dense"]) under the bar light: at the
         full shadow reach a crossing's pieces pass their cap; the polygons are then built over

@@ -121,6 +121,15 @@ const std::vector<Vec2d> kProfile = {{-0.07, 0}, {-0.06, 0.004}, {-0.05, 0}, {0,
                                      {0.05, 0}, {0.06, 0.004}, {0.07, 0}};
 const std::vector<int> kLayers = {0, 0, 1, 2, 0, 0};
 
+// kProfile's height at b, as the explicit geometry takes it (straight between its points).
+double profileAt(double b) {
+  const auto& P = kProfile;
+  if (b <= P.front().x || b >= P.back().x) return 0.0;
+  for (size_t j = 0; j + 1 < P.size(); ++j)
+    if (b >= P[j].x && b <= P[j + 1].x) return P[j].y + (P[j + 1].y - P[j].y) * (b - P[j].x) / (P[j + 1].x - P[j].x);
+  return 0.0;
+}
+
 Groove along(Vec2d t, double b0, int id) {
   Groove g;
   g.tdir = t;
@@ -449,13 +458,6 @@ INSTANTIATE_TEST_SUITE_P(CrossingEndsAndCorner, Layouts, ::testing::Values(0, 1,
 // 0.07 mm (its half-width) x (1 / cos 7.5 degrees - 1) = 2.4e-4 mm of it. One straight groove
 // through the vertex (the leg before it, carried on) is off by far more.
 TEST(GrooveArea, ACornersPiecesFollowTheClosestPointOnThePath) {
-  auto profileAt = [](double b) {
-    const auto& P = kProfile;
-    if (b <= P.front().x || b >= P.back().x) return 0.0;
-    for (size_t j = 0; j + 1 < P.size(); ++j)
-      if (b >= P[j].x && b <= P[j + 1].x) return P[j].y + (P[j + 1].y - P[j].y) * (b - P[j].x) / (P[j + 1].x - P[j].x);
-    return 0.0;
-  };
   for (double turn : {30.0, 90.0, 150.0, 170.0, -60.0, -120.0}) {
     const Vec2d v(0.01, 0.02), ta = dirOf(10), tb = dirOf(10 + turn);
     auto [a, b] = legs(v, ta, tb);
@@ -505,13 +507,6 @@ TEST(GrooveArea, ACornersPiecesFollowTheClosestPointOnThePath) {
 // geometry's (the profile at the path's closest point) to rounding; two grooves composited, as two
 // scratches would be, stand one pass's pile-up over the other's groove.
 TEST(GrooveArea, APathsTwoPassesEachHoldWhereTheyAreTheNearer) {
-  auto profileAt = [](double b) {
-    const auto& P = kProfile;
-    if (b <= P.front().x || b >= P.back().x) return 0.0;
-    for (size_t j = 0; j + 1 < P.size(); ++j)
-      if (b >= P[j].x && b <= P[j + 1].x) return P[j].y + (P[j + 1].y - P[j].y) * (b - P[j].x) / (P[j + 1].x - P[j].x);
-    return 0.0;
-  };
   // Each pass: a point on it and its direction; the path runs along the first, turns far away
   // and comes back along the second.
   struct Case {

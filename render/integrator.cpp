@@ -1615,7 +1615,7 @@ class Tracer {
     if (placed.empty()) return false;
     // Two passes of one path (nearGrooves): each on its side of their midline, the nearer pass,
     // as the explicit geometry has them; composited, a pass's groove took the other's pile-up
-    // away where they overlap (a hairpin with legs 0.12 mm apart, 0.14 mm wide grooves: 6.1% of
+    // away where they overlap (a hairpin with legs 0.12 mm apart, 0.18 mm wide grooves: 6.1% of
     // pixels >= 10 under the bar; docs/grooves.md, "A path that comes back").
     for (size_t i = 0; i < placed.size(); ++i)
       for (size_t j = 0; j < placed.size(); ++j) {

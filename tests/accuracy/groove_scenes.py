@@ -245,7 +245,7 @@ LAYOUTS["loop"] = """
 """
 
 # A path that turns back beside itself (seen at 3 degrees; the turn, 6 mm away, out of view): its
-# two legs 0.12 mm apart, their grooves (0.14 mm wide) overlapping, each holding on its side of
+# two legs 0.12 mm apart, their grooves (0.18 mm wide with their pile-ups) overlapping, each holding on its side of
 # the midline as the nearer pass.
 LAYOUTS["hairpin"] = """
   - type: scratch

@@ -76,33 +76,32 @@ ScratchPath ScratchPath::polyline(std::vector<Vec2d> pts) {
   return p;
 }
 
-const ScratchPath::Corner* ScratchPath::nearestCorner(Vec2d p, double max_dist) const {
+const ScratchPath::Corner* ScratchPath::nearestOf(const Corner* b, const Corner* e, Vec2d p, double max_dist) {
   const Corner* best = nullptr;
   double best_d = max_dist;
-  for (const Corner& c : corners_) {
-    const double d = len2(c.p - p);
+  for (const Corner* c = b; c != e; ++c) {
+    const double d = len2(c->p - p);
     if (d <= best_d) {
       best_d = d;
-      best = &c;
+      best = c;
     }
   }
   return best;
 }
 
+const ScratchPath::Corner* ScratchPath::nearestCorner(Vec2d p, double max_dist) const {
+  return nearestOf(corners_.data(), corners_.data() + corners_.size(), p, max_dist);
+}
+
 const ScratchPath::Corner* ScratchPath::cornerAround(double s, Vec2d p, double max_dist) const {
-  auto after = std::lower_bound(corners_.begin(), corners_.end(), s, [](const Corner& c, double v) { return c.s < v; });
-  const Corner* best = nullptr;
-  double best_d = max_dist;
-  auto consider = [&](const Corner& c) {
-    const double d = len2(c.p - p);
-    if (d <= best_d) {
-      best_d = d;
-      best = &c;
-    }
-  };
-  if (after != corners_.begin()) consider(*(after - 1));
-  if (after != corners_.end()) consider(*after);
-  return best;
+  const Corner *b = corners_.data(), *e = b + corners_.size();
+  const Corner* after = std::lower_bound(b, e, s, [](const Corner& c, double v) { return c.s < v; });
+  return nearestOf(after == b ? b : after - 1, after == e ? e : after + 1, p, max_dist);
+}
+
+std::pair<double, double> ScratchPath::legSpan(const Corner& c) const {
+  const size_t i = size_t(&c - corners_.data());
+  return {i > 0 ? corners_[i - 1].s : 0.0, i + 1 < corners_.size() ? corners_[i + 1].s : length()};
 }
 
 ScratchPath ScratchPath::sub(double s0, double s1) const {

@@ -97,10 +97,15 @@ class ScratchPath {
   // it, so that the segment at s is one of the corner's legs), the nearer to p within max_dist, or
   // null.
   const Corner* cornerAround(double s, Vec2d p, double max_dist) const;
+  // The arc positions where corner c's legs end: the corners before and after it, or the path's
+  // ends.
+  std::pair<double, double> legSpan(const Corner& c) const;
 
  private:
   void finish();  // arc lengths, box, float copy, segment grid
   void closestOnSegment(size_t i, Vec2f p, float& best_d2, size_t& best_i, float& best_t) const;
+  // The corner of [b, e) nearest p within max_dist (the later on a tie), or null.
+  static const Corner* nearestOf(const Corner* b, const Corner* e, Vec2d p, double max_dist);
   // Calls visit(i) for each segment in the grid cells within max_dist of p (some more than once);
   // false, having called nothing, where the path has no grid, max_dist is infinite or a scan of
   // every segment is cheaper.

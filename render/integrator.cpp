@@ -1341,10 +1341,9 @@ class Tracer {
     // Each leg up to the path's end or its next corner, where it stops. (Run on straight, it
     // stood out past that corner as a spur: the corner fuzzer's c1_18, three corners within 0.7 mm,
     // 1.35% of pixels >= 10 that way, 0.09% now; docs/grooves.md, "Corners".)
-    const auto& cs = path.corners();
-    const size_t ci = size_t(c - cs.data());
-    a.t_lo = -(c->s - (ci > 0 ? cs[ci - 1].s : 0.0)) * mm;
-    b.t_hi = ((ci + 1 < cs.size() ? cs[ci + 1].s : path.length()) - c->s) * mm;
+    const auto [s0, s1] = path.legSpan(*c);
+    a.t_lo = (s0 - c->s) * mm;
+    b.t_hi = (s1 - c->s) * mm;
     if (!groove::area::cornerParts(a, b, kCornerSector, parts)) return false;
     out = a;
     out.parts = &parts;
@@ -1404,19 +1403,17 @@ class Tracer {
     // corner itself and comes first.
     thread_local std::vector<char> in_corner;
     in_corner.assign(near.size(), 0);
+    const Vec2d F(double(sp.uv.x), double(sp.uv.y));
+    const double corner_reach = double(along_uv * float(M_SQRT2));
     for (size_t i = 0; i < near.size(); ++i)
       for (size_t j = 0; j < near.size() && !in_corner[i]; ++j) {
         if (j == i || near[j].sc != near[i].sc) continue;
         const ScratchPath& path = near[i].sc->path();
-        const Vec2d F(double(sp.uv.x), double(sp.uv.y));
-        const double reach = double(along_uv * float(M_SQRT2));
-        const ScratchPath::Corner* cj = path.cornerAround(double(near[j].pp.s), F, reach);
+        const ScratchPath::Corner* cj = path.cornerAround(double(near[j].pp.s), F, corner_reach);
         if (!cj) continue;
-        const auto& cs = path.corners();
-        const size_t ci = size_t(cj - cs.data());
-        const double s0 = ci > 0 ? cs[ci - 1].s : 0.0, s1 = ci + 1 < cs.size() ? cs[ci + 1].s : path.length();
+        const auto [s0, s1] = path.legSpan(*cj);
         const double si = double(near[i].pp.s);
-        in_corner[i] = si >= s0 && si <= s1 && (j < i || !path.cornerAround(si, F, reach));
+        in_corner[i] = si >= s0 && si <= s1 && (j < i || !path.cornerAround(si, F, corner_reach));
       }
     for (size_t i = 0; i < near.size(); ++i) {
       if (in_corner[i]) continue;
@@ -1424,7 +1421,7 @@ class Tracer {
       ga::Groove g;
       // A corner within the region: its legs and cap (cornerGroove), whole. Else the groove along
       // its tangent at the closest point, in pieces where its scale is far from linear.
-      const bool corner = cornerGroove(sp, ng, int(i), along_uv * float(M_SQRT2), gs, mm, profiles, corner_parts[i], g);
+      const bool corner = cornerGroove(sp, ng, int(i), float(corner_reach), gs, mm, profiles, corner_parts[i], g);
       float k = 0;
       if (!corner) {
         k = ng.sc->scaleAt(ng.pp.s);

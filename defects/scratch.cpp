@@ -268,31 +268,38 @@ void ScratchPath::closestBranches(Vec2f p, float max_dist, std::vector<PathPoint
   out.clear();
   if (pts_.size() < 2) return;
   const size_t nseg = pts_.size() - 1;
-  // The segments within max_dist (the test closest makes), in path order.
-  thread_local std::vector<size_t> within;
+  // The segments within max_dist (the test closest makes), each with its nearest point, in path
+  // order.
+  struct Near {
+    size_t i;
+    float d2, t;
+  };
+  thread_local std::vector<Near> within;
   within.clear();
   auto test = [&](size_t i) {
-    float d2 = std::numeric_limits<float>::infinity(), t = 0;
-    size_t j = nseg;
-    closestOnSegment(i, p, d2, j, t);
-    if (std::sqrt(d2) <= max_dist) within.push_back(i);
+    Near n{nseg, std::numeric_limits<float>::infinity(), 0};
+    closestOnSegment(i, p, n.d2, n.i, n.t);
+    if (std::sqrt(n.d2) <= max_dist) within.push_back(n);
   };
   if (!forSegmentsNear(p, max_dist, test))
     for (size_t i = 0; i < nseg; ++i) test(i);
   if (within.empty()) return;
-  std::sort(within.begin(), within.end());
-  within.erase(std::unique(within.begin(), within.end()), within.end());
-  // Runs of consecutive segments; the closest point of each. The run that holds the path's
-  // closest point goes first, so that out[0] is closest(p, max_dist).
+  std::sort(within.begin(), within.end(), [](const Near& a, const Near& b) { return a.i < b.i; });
+  within.erase(std::unique(within.begin(), within.end(), [](const Near& a, const Near& b) { return a.i == b.i; }),
+               within.end());
+  // Runs of consecutive segments; the closest point of each (the nearest, on a tie the lower
+  // segment, as closestOnSegment keeps it). The run that holds the path's closest point goes
+  // first, so that out[0] is closest(p, max_dist).
   size_t first = 0;
   float first_d2 = std::numeric_limits<float>::infinity();
   for (size_t a = 0; a < within.size();) {
     size_t b = a + 1;
-    while (b < within.size() && within[b] == within[b - 1] + 1) ++b;
-    float d2 = std::numeric_limits<float>::infinity(), t = 0;
-    size_t i = nseg;
-    for (size_t k = a; k < b; ++k) closestOnSegment(within[k], p, d2, i, t);
-    PathPoint pp = pointOn(p, i, t, d2, max_dist);
+    while (b < within.size() && within[b].i == within[b - 1].i + 1) ++b;
+    size_t best = a;
+    for (size_t k = a + 1; k < b; ++k)
+      if (within[k].d2 < within[best].d2) best = k;
+    const float d2 = within[best].d2;
+    PathPoint pp = pointOn(p, within[best].i, within[best].t, d2, max_dist);
     if (pp.found) {
       // (Strictly nearer: on a tie the lower segment, as in closest.)
       if (d2 < first_d2) {

@@ -469,6 +469,8 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       near.clear();
       near_at.clear();
       near_h.clear();
+      passes.clear();
+      bool passing = false;  // some path passes the cell twice
       if (c.size == 1) {
         Box2 cb{Vec2f(float(q00.x), float(q00.y)), Vec2f(float(q11.x), float(q11.y))};
         Box2 cb_h{cb.lo - Vec2f(far, far), cb.hi + Vec2f(far, far)};
@@ -485,6 +487,14 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
           if (sc->support().overlaps(cb) && pc.distance <= reach) {
             near.push_back(sc);
             near_at.push_back(pc);
+            // Its passes, where it comes back into the reach.
+            passes.emplace_back();
+            sc->path().closestBranches(centre, reach, branches);
+            if (branches.size() >= 2) {
+              for (const PathPoint& b : branches)
+                passes.back().push_back({Vec2d(b.point.x, b.point.y), Vec2d(b.tangent.x, b.tangent.y)});
+              passing = true;
+            }
           }
         }
       }
@@ -512,19 +522,6 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
           else
             last = pts[i].x;
         }
-      }
-      // The passes of each path that comes back into the cell's reach.
-      passes.assign(near.size(), {});
-      bool passing = false;
-      for (size_t k = 0; k < near.size(); ++k) {
-        const float half_diag = float(0.5 * std::hypot(q11.x - q00.x, q11.y - q00.y));
-        const float reach = float(near[k]->referenceProfile().halfExtent()) * near[k]->maxScale() + half_diag;
-        near[k]->path().closestBranches(Vec2f(float(0.5 * (q00.x + q11.x)), float(0.5 * (q00.y + q11.y))), reach,
-                                        branches);
-        if (branches.size() < 2) continue;
-        for (const PathPoint& b : branches)
-          passes[k].push_back({Vec2d(b.point.x, b.point.y), Vec2d(b.tangent.x, b.tangent.y)});
-        passing = true;
       }
       // Cells where the composite height can jump (two scratches meet, two passes of one path with
       // different scales meet, or an abrupt end is near) get exact facets up to the jump lines and

@@ -411,15 +411,13 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       // next (Scratch::height takes the closest point): |b_i| - |b_j| for each two of its passes,
       // b the signed distance from the pass's line. Within each side the closest point is on one
       // pass and the kinks below are affine.
+      auto dist = [&](const std::pair<Vec2d, Vec2d>& l) {
+        const Vec2d d = q - l.first;
+        return std::fabs(d.x * l.second.y - d.y * l.second.x);
+      };
       for (const auto& ps : passes)
         for (size_t i = 0; i < ps.size(); ++i)
-          for (size_t j = i + 1; j < ps.size(); ++j) {
-            auto dist = [&](const std::pair<Vec2d, Vec2d>& l) {
-              const Vec2d d = q - l.first;
-              return std::fabs(d.x * l.second.y - d.y * l.second.x);
-            };
-            f.push_back(dist(ps[i]) - dist(ps[j]));
-          }
+          for (size_t j = i + 1; j < ps.size(); ++j) f.push_back(dist(ps[i]) - dist(ps[j]));
       // First every scratch's own kinks, then where two trade places: h_a - h_b is affine only
       // within pieces that are already on one facet of each (cut the other way round, the chord
       // of its bent zero set would leave pieces straddling it).

@@ -323,14 +323,70 @@ double Surface::heightAt(Vec2d p) const {
   return lo < 0 ? lo : hi;
 }
 
+namespace {
+
+Vec2d unitOf(Vec2d v) {
+  const double l = std::hypot(v.x, v.y);
+  return l > 0 ? v * (1.0 / l) : v;
+}
+
+// The signed turn (rad) from direction ta to tb.
+double turnOf(Vec2d ta, Vec2d tb) {
+  ta = unitOf(ta);
+  tb = unitOf(tb);
+  return std::atan2(ta.x * tb.y - ta.y * tb.x, ta.x * tb.x + ta.y * tb.y);
+}
+
+// The round outer side of a corner at v where the path turns by `turn` from leg `in` to a leg
+// along tb: sectors no wider than max_sector, each a straight groove through v (with `like`'s
+// profile, layers and id) across its middle ray, clipped to its wedge and stretched by 1 /
+// cos(half the sector) so that on the wedge's edges its offset is the exact distance from v.
+void appendFan(const Groove& in, const Groove& like, Vec2d v, Vec2d tb, double turn, double max_sector,
+               std::vector<Groove>& parts) {
+  // The outer side: away from where the second leg goes, in the first one's b.
+  const double outer = (in.bdir.x * tb.x + in.bdir.y * tb.y) > 0 ? -1.0 : 1.0;
+  // The cap's rays run from the first leg's outer normal to the second's, turning with the path.
+  const Vec2d na = unitOf(in.bdir) * outer;
+  const int n = std::max(1, int(std::ceil(std::fabs(turn) / max_sector - 1e-9)));
+  const double half = 0.5 * turn / n, stretch = 1 / std::cos(half), tan_half = std::tan(std::fabs(half));
+  for (int k = 0; k < n; ++k) {
+    const double ang = half * (2 * k + 1);
+    const Vec2d u(na.x * std::cos(ang) - na.y * std::sin(ang), na.x * std::sin(ang) + na.y * std::cos(ang));
+    const Vec2d w(-u.y, u.x);  // across the ray
+    Groove c = like;
+    c.parts = nullptr;
+    c.rho = 0;
+    c.t_lo = -1e30;
+    c.t_hi = 1e30;
+    // b = outer (p - v).u / cos(half): the outer offset, on the sector's edges exactly its distance
+    // from the vertex, as on the legs' end lines.
+    c.bdir = u * (outer * stretch);
+    c.b0 = -(c.bdir.x * v.x + c.bdir.y * v.y);
+    c.tdir = w;
+    c.t0 = -(w.x * v.x + w.y * v.y);
+    // The wedge |(p - v).w| <= (p - v).u tan(half).
+    const Vec2d e1 = w - u * tan_half, e2 = w * -1.0 - u * tan_half;
+    c.dom[0] = {e1, -(e1.x * v.x + e1.y * v.y)};
+    c.dom[1] = {e2, -(e2.x * v.x + e2.y * v.y)};
+    c.n_dom = 2;
+    parts.push_back(c);
+  }
+}
+
+// The point of g at (t, b) = (t, 0).
+bool pointAt(const Groove& g, double t, Vec2d& v) {
+  const double det = g.tdir.x * g.bdir.y - g.tdir.y * g.bdir.x;
+  if (!(std::fabs(det) > 1e-12)) return false;
+  const double tt = t - g.t0;
+  v = Vec2d((tt * g.bdir.y + g.b0 * g.tdir.y) / det, (-g.b0 * g.tdir.x - tt * g.bdir.x) / det);
+  return true;
+}
+
+}  // namespace
+
 bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::vector<Groove>& parts) {
   parts.clear();
-  auto unit = [](Vec2d v) {
-    const double l = std::hypot(v.x, v.y);
-    return l > 0 ? v * (1.0 / l) : v;
-  };
-  const Vec2d ta = unit(in.tdir), tb = unit(out.tdir);
-  const double turn = std::atan2(ta.x * tb.y - ta.y * tb.x, ta.x * tb.x + ta.y * tb.y);
+  const double turn = turnOf(in.tdir, out.tdir);
   if (!(std::fabs(turn) >= 1e-6) || !(std::fabs(turn) <= kMaxCornerTurn) || !(max_sector > 0)) return false;
   // The vertex: t = 0 and b = 0 on the leg before it.
   const double det = in.tdir.x * in.bdir.y - in.tdir.y * in.bdir.x;
@@ -351,33 +407,186 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
   a.n_dom = b.n_dom = 2;
   parts.push_back(a);
   parts.push_back(b);
-  // The outer side: away from where the second leg goes, in the first one's b.
-  const double outer = (in.bdir.x * tb.x + in.bdir.y * tb.y) > 0 ? -1.0 : 1.0;
-  // The cap's rays run from the first leg's outer normal to the second's, turning with the path.
-  const Vec2d na = unit(in.bdir) * outer;
-  const int n = std::max(1, int(std::ceil(std::fabs(turn) / max_sector - 1e-9)));
-  const double half = 0.5 * turn / n, stretch = 1 / std::cos(half), tan_half = std::tan(std::fabs(half));
-  for (int k = 0; k < n; ++k) {
-    const double ang = half * (2 * k + 1);
-    const Vec2d u(na.x * std::cos(ang) - na.y * std::sin(ang), na.x * std::sin(ang) + na.y * std::cos(ang));
-    const Vec2d w(-u.y, u.x);  // across the ray
-    Groove c = in;
-    c.parts = nullptr;
-    c.rho = 0;
-    c.t_lo = -1e30;
-    c.t_hi = 1e30;
-    // b = outer (p - v).u / cos(half): the outer offset, on the sector's edges exactly its distance
-    // from the vertex, as on the legs' end lines.
-    c.bdir = u * (outer * stretch);
-    c.b0 = -(c.bdir.x * v.x + c.bdir.y * v.y);
-    c.tdir = w;
-    c.t0 = -(w.x * v.x + w.y * v.y);
-    // The wedge |(p - v).w| <= (p - v).u tan(half).
-    const Vec2d e1 = w - u * tan_half, e2 = w * -1.0 - u * tan_half;
-    c.dom[0] = {e1, -(e1.x * v.x + e1.y * v.y)};
-    c.dom[1] = {e2, -(e2.x * v.x + e2.y * v.y)};
-    c.n_dom = 2;
-    parts.push_back(c);
+  appendFan(in, in, v, unitOf(out.tdir), turn, max_sector, parts);
+  return true;
+}
+
+bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& bound, std::vector<Groove>& parts) {
+  parts.clear();
+  const size_t n = legs.size();
+  if (n < 2 || !(max_sector > 0) || bound.empty()) return false;
+  // The candidates: each leg over its strip, then the sectors of the corner at its end.
+  struct Candidate {
+    Groove g;  // dom[0, n_dom): where it is a candidate
+    HalfPlane b;  // its offset b(p) = b.a . p + b.c
+    double e = 0;  // |b| beyond which it is flat over `bound`
+  };
+  thread_local std::vector<Candidate> cands;
+  thread_local std::vector<Groove> fan;
+  cands.clear();
+  for (size_t k = 0; k < n; ++k) {
+    Groove g = legs[k];
+    g.parts = nullptr;
+    g.n_dom = 0;
+    // Within its corners' normals (the first leg only before corner 0, the last only after its
+    // start); the interior legs' own ends are those normals, so their t range is left open.
+    if (k > 0) g.dom[g.n_dom++] = {g.tdir * -1.0, g.t_lo - g.t0};
+    if (k + 1 < n) g.dom[g.n_dom++] = {g.tdir, g.t0 - g.t_hi};
+    if (k > 0 && k + 1 < n) {
+      g.t_lo = -1e30;
+      g.t_hi = 1e30;
+    }
+    cands.push_back({g, {g.bdir, g.b0}});
+    if (k + 1 == n) break;
+    // Corner k, at the start of leg k + 1.
+    const double turn = turnOf(legs[k].tdir, legs[k + 1].tdir);
+    if (!(std::fabs(turn) <= kMaxCornerTurn)) return false;
+    if (!(std::fabs(turn) >= 1e-6)) continue;
+    Vec2d v;
+    if (!pointAt(legs[k + 1], 0, v)) return false;
+    fan.clear();
+    appendFan(legs[k], legs[k + 1], v, unitOf(legs[k + 1].tdir), turn, max_sector, fan);
+    for (const Groove& c : fan) cands.push_back({c, {c.bdir, c.b0}});
+  }
+  // The partition of `bound`, one candidate at a time: each takes, within its own domain, the part
+  // of every cell where its |b| is below the cell's owner's (or the cell has none yet). A cell
+  // keeps the half-planes that cut it from `bound`; one that no longer bounds it is dropped (a
+  // convex cell strictly inside a half-plane stays so as it shrinks).
+  struct Cell {
+    Poly poly;
+    HalfPlane h[2 * Groove::kMaxDom + 1];
+    int nh = 0;
+    int owner = -1;
+  };
+  thread_local std::vector<Cell> cells, next;
+  cells.assign(1, Cell{});
+  cells[0].poly = bound;
+  auto prune = [](Cell& c) {
+    int m = 0;
+    for (int i = 0; i < c.nh; ++i) {
+      const HalfPlane& h = c.h[i];
+      const double tol = 1e-9 * (std::fabs(h.a.x) + std::fabs(h.a.y));
+      // It bounds the cell only along an edge: two vertices on its line (a line through one
+      // vertex alone, such as the fan's through its corner, cuts nothing off).
+      // (The clipping can leave a vertex twice: the two must be apart.)
+      int on = 0;
+      Vec2d first;
+      for (int j = 0; j < c.poly.n && on < 2; ++j) {
+        const Vec2d& q = c.poly.v[size_t(j)];
+        if (!(h.a.x * q.x + h.a.y * q.y + h.c > -tol)) continue;
+        if (on == 0 || std::fabs(q.x - first.x) + std::fabs(q.y - first.y) > 1e-9) ++on;
+        first = on == 1 ? q : first;
+      }
+      if (on >= 2) c.h[m++] = h;
+    }
+    c.nh = m;
+  };
+  bool overflow = false;
+  // c cut by h (kept where h holds); false where nothing of area is left.
+  auto cut = [&](const Cell& c, const HalfPlane& h, Cell& out) {
+    out = c;
+    out.poly = clip(c.poly, h.a, h.c);
+    if (out.poly.empty() || out.poly.area() <= kSliver) return false;
+    // (Lines met again, such as a leg's end normal that is also its corner's first sector's
+    // edge, are kept once.)
+    bool again = false;
+    const double lh = std::hypot(h.a.x, h.a.y);
+    for (int i = 0; i < out.nh && !again; ++i) {
+      const HalfPlane& o = out.h[i];
+      const double lo = std::hypot(o.a.x, o.a.y);
+      again = std::fabs(h.a.x / lh - o.a.x / lo) + std::fabs(h.a.y / lh - o.a.y / lo) + std::fabs(h.c / lh - o.c / lo) < 1e-12;
+    }
+    if (!again) out.h[out.nh++] = h;
+    prune(out);
+    if (out.nh == 2 * Groove::kMaxDom + 1) {  // (a cell with that many sides: give up)
+      overflow = true;
+      out.nh = 0;
+    }
+    return true;
+  };
+  // Beyond e = the cross-section's half-width at the largest scale over `bound`, a candidate is
+  // flat: whether it is over a whole cell.
+  for (Candidate& cd : cands) {
+    double r_max = 0;
+    for (int j = 0; j < bound.n; ++j)
+      r_max = std::max(r_max, 1 + cd.g.rho * (cd.g.t0 + cd.g.tdir.x * bound.v[size_t(j)].x + cd.g.tdir.y * bound.v[size_t(j)].y));
+    cd.e = std::max(std::fabs(cd.g.pts->front().x), std::fabs(cd.g.pts->back().x)) * r_max;
+  }
+  auto flat = [](const Cell& c, const Candidate& cd) {
+    int above = 0, below = 0;
+    for (int j = 0; j < c.poly.n; ++j) {
+      const double b = cd.b.a.x * c.poly.v[size_t(j)].x + cd.b.a.y * c.poly.v[size_t(j)].y + cd.b.c;
+      above += b >= cd.e;
+      below += b <= -cd.e;
+    }
+    return above == c.poly.n || below == c.poly.n;
+  };
+  auto flip = [](const HalfPlane& h) { return HalfPlane{h.a * -1.0, -h.c}; };
+  auto zero = [](const HalfPlane& h) { return std::hypot(h.a.x, h.a.y) <= 1e-12 && std::fabs(h.c) <= 1e-12; };
+  for (size_t ci = 0; ci < cands.size() && !overflow; ++ci) {
+    const Candidate& cd = cands[ci];
+    next.clear();
+    for (const Cell& c0 : cells) {
+      // Where both are flat (beyond their cross-sections) which one holds makes no difference.
+      if (c0.owner >= 0 && flat(c0, cd) && flat(c0, cands[size_t(c0.owner)])) {
+        next.push_back(c0);
+        continue;
+      }
+      // Cut where the candidate takes over; a cell of which it takes nothing stays whole.
+      const size_t mark = next.size();
+      bool took = false;
+      // Outside the candidate's domain the cell stays as it is, in pieces.
+      Cell rest = c0, piece;
+      bool any = true;
+      for (int k = 0; k < cd.g.n_dom && any; ++k) {
+        if (cut(rest, flip(cd.g.dom[k]), piece)) next.push_back(piece);
+        Cell in;
+        any = cut(rest, cd.g.dom[k], in);
+        rest = in;
+      }
+      if (any && rest.owner < 0) {
+        rest.owner = int(ci);
+        next.push_back(rest);
+        took = true;
+      } else if (any) {
+        // The candidate holds where |b| < |b_owner|: u = b - b_owner and v = b + b_owner of
+        // opposite signs.
+        const HalfPlane& bo = cands[size_t(rest.owner)].b;
+        const HalfPlane u{cd.b.a - bo.a, cd.b.c - bo.c}, v{cd.b.a + bo.a, cd.b.c + bo.c};
+        if (zero(u) || zero(v)) {  // on the owner's line: |b| the same everywhere
+          next.push_back(rest);
+        } else {
+          Cell a, b;
+          if (cut(rest, u, a)) {  // u <= 0
+            if (cut(a, flip(v), b)) b.owner = int(ci), next.push_back(b), took = true;
+            if (cut(a, v, b)) next.push_back(b);
+          }
+          if (cut(rest, flip(u), a)) {  // u >= 0
+            if (cut(a, v, b)) b.owner = int(ci), next.push_back(b), took = true;
+            if (cut(a, flip(v), b)) next.push_back(b);
+          }
+        }
+      }
+      if (!took) {
+        next.resize(mark);
+        next.push_back(c0);
+      }
+    }
+    cells.swap(next);
+    overflow = overflow || cells.size() > kMaxChainCells;
+  }
+  if (overflow) return false;
+  for (const Cell& c : cells) {
+    // (Every point has a nearest candidate: the path's closest point is on a leg's strip or, on
+    // a corner's outer side, in its fan.)
+    if (c.owner < 0 || c.nh > Groove::kMaxDom) {
+      parts.clear();
+      return false;
+    }
+    Groove q = cands[size_t(c.owner)].g;
+    q.n_dom = c.nh;
+    for (int k = 0; k < c.nh; ++k) q.dom[k] = c.h[k];
+    parts.push_back(q);
   }
   return true;
 }

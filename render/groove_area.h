@@ -95,12 +95,14 @@ struct Groove {
   // that it cuts below the base plane. Null: a wall below the base shows its foot's layer.
   const std::vector<double>* interfaces = nullptr;
   int id = 0;  // caller's index
-  // A groove whose path turns a corner near the footprint is made of parts (cornerParts): each
-  // part a groove as above that holds only where its `dom` half-planes hold, their domains tiling
-  // the plane. Such a groove counts as one (one plane per cell, one id); its own fields other than
-  // `parts` and `id` are not used. A part's own `parts` is null.
+  // A groove whose path turns a corner near the footprint is made of parts (cornerParts,
+  // chainParts, passParts): each part a groove as above that holds only where its `dom`
+  // half-planes hold, their domains tiling the plane (chainParts: the region it was given). Such a
+  // groove counts as one (one plane per cell, one id); its own fields other than `parts` and `id`
+  // are not used. A part's own `parts` is null.
+  static constexpr int kMaxDom = 6;
   const std::vector<Groove>* parts = nullptr;
-  HalfPlane dom[2];
+  HalfPlane dom[kMaxDom];
   int n_dom = 0;
 };
 
@@ -119,6 +121,28 @@ struct Groove {
 // kMaxCornerTurn, where the legs' bisector degenerates.
 constexpr double kMaxCornerTurn = 175.0 * 3.14159265358979323846 / 180.0;
 bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::vector<Groove>& out_parts);
+
+// The parts of a groove whose path turns at several corners near the footprint (a hook, a U-turn
+// made of two corners, a zigzag): legs[0..n] (n >= 1) its straight legs in path order, leg k + 1
+// starting at corner k, each in its own frame as for cornerParts. Leg 0 has t = 0 at corner 0 (its
+// end, t_hi = 0); every later leg has t = 0 at its start corner (t_lo = 0), and each but the last
+// ends at the next corner (t_hi: that corner's t along it). Every leg's profile is the one at its
+// t = 0 (so the fan of corner k takes leg k + 1's); its rho carries it to the next corner's.
+//
+// The surface is again the explicit geometry's, each point taking the cross-section at its closest
+// point on the path, but the corners' legs and round outer sides now meet each other too: the
+// two legs of a U-turn side by side, a hook's last leg beside its first. The plane is partitioned
+// by nearness: each leg is a candidate over its strip (between its corners' normals; the first
+// and last leg unbounded beyond their far ends, where the groove's own ends hold), each sector of
+// a corner's fan (as in cornerParts) over its wedge, and every point goes to the candidate with
+// the smallest |b| there (for two candidates a and b the cut runs along b_a - b_b = 0 and b_a + b_b
+// = 0, as in passParts). Each cell of the partition is a part, its domain the half-planes that
+// bound it within `bound` (the largest region the caller will build), so the parts tile `bound`.
+// Appends the parts to `out_parts` (cleared first). False (nothing appended) where a corner turns
+// by more than kMaxCornerTurn, or the partition needs more than kMaxChainCells cells or a cell
+// more than Groove::kMaxDom half-planes.
+constexpr size_t kMaxChainCells = 400;
+bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& bound, std::vector<Groove>& out_parts);
 
 // The parts of a path that passes near the footprint twice (a hairpin's two legs, a loop that
 // crosses itself), `a` and `b` each straight along its pass, with the same id: the explicit

@@ -501,6 +501,98 @@ TEST(GrooveArea, ACornersPiecesFollowTheClosestPointOnThePath) {
   EXPECT_TRUE(parts.empty());
 }
 
+// A path that turns at several corners within the region: a U-turn made of two corners, a hook,
+// a zigzag, three corners in a row. chainParts gives the explicit geometry's surface (the profile
+// at the signed distance to the path's closest point) within the fans' bound, as
+// ACornersPiecesFollowTheClosestPointOnThePath does for one corner; the groove of the middle
+// corner alone (cornerParts, its legs stopping at the next corners) is off by far more, where a
+// leg stops inside the groove or the other leg's pile-up is missing.
+TEST(GrooveArea, AChainOfCornersFollowsTheClosestPointOnThePath) {
+  struct Case {
+    const char* name;
+    std::vector<Vec2d> pts;  // the corners; the path comes from far away and leaves far away
+    Vec2d in, out;           // its directions before the first corner and after the last
+  };
+  const Case cases[] = {
+      {"U-turn, legs 0.1 apart", {{0.03, -0.05}, {0.03, 0.05}}, dirOf(0), dirOf(180)},
+      {"hook, 41 and -161 degrees", {{-0.02, -0.03}, {0.03, 0.0}}, dirOf(-10), dirOf(230)},
+      {"zigzag, -154 and 144 degrees", {{-0.04, 0.0}, {0.03, 0.02}}, dirOf(170), dirOf(160)},
+      {"three corners, 80, -95 and -75 degrees", {{-0.05, -0.02}, {0.0, 0.04}, {0.05, -0.01}}, dirOf(-30), dirOf(-120)},
+      {"Z, -45 and 45 degrees", {{-0.02, 0.02}, {0.03, -0.03}}, dirOf(0), dirOf(0)},
+  };
+  const Poly region = rect(-0.2, -0.2, 0.2, 0.2);
+  for (const Case& c : cases) {
+    const size_t m = c.pts.size();
+    std::vector<Vec2d> path_pts{c.pts.front() - c.in * 20};
+    for (const Vec2d& p : c.pts) path_pts.push_back(p);
+    path_pts.push_back(c.pts.back() + c.out * 20);
+    const ScratchPath path = ScratchPath::polyline(path_pts);
+    ASSERT_EQ(path.corners().size(), m) << c.name;
+    // Leg k runs from path_pts[k] to path_pts[k + 1]; leg 0 has t = 0 at its end, the others at
+    // their start.
+    std::vector<Groove> legs_of;
+    for (size_t k = 0; k <= m; ++k) {
+      const Vec2d a = path_pts[k], b = path_pts[k + 1], d = b - a;
+      const double len = std::hypot(d.x, d.y);
+      const Vec2d t = d * (1 / len), o = k == 0 ? b : a;
+      Groove g = along(t, 0, 3);
+      g.t0 = -(t.x * o.x + t.y * o.y);
+      g.b0 = -(g.bdir.x * o.x + g.bdir.y * o.y);
+      g.t_lo = k == 0 ? -len : 0;
+      g.t_hi = k == 0 ? 0 : len;
+      legs_of.push_back(g);
+    }
+    std::vector<Groove> parts;
+    ASSERT_TRUE(chainParts(legs_of, 15 * M_PI / 180, region, parts)) << c.name;
+    Groove g;
+    g.parts = &parts;
+    g.id = 3;
+    Surface s;
+    ASSERT_TRUE(s.build(region, {g})) << c.name;
+    EXPECT_TRUE(s.walls().empty()) << c.name;
+    double area = 0;
+    for (const Piece& pc : s.pieces()) area += pc.wall ? 0.0 : pc.poly.area();
+    EXPECT_NEAR(area, 0.16, 1e-9) << c.name;
+    // The middle corner alone, its legs stopping at the corners next to it.
+    const size_t mid = (m - 1) / 2;
+    std::vector<Groove> one_parts;
+    Groove a = legs_of[mid], b = legs_of[mid + 1];
+    if (mid > 0) {  // a as cornerParts wants it: t = 0 at its end
+      const double len = a.t_hi;
+      a.t0 -= len;
+      a.t_lo = -len;
+      a.t_hi = 0;
+    }
+    ASSERT_TRUE(cornerParts(a, b, 15 * M_PI / 180, one_parts));
+    Groove one;
+    one.parts = &one_parts;
+    Surface s1;
+    ASSERT_TRUE(s1.build(region, {one}));
+    double worst = 0, worst_one = 0;
+    for (int j = 0; j <= 80; ++j)
+      for (int i = 0; i <= 80; ++i) {
+        const Vec2d p(-0.15 + 0.3 * (i + 0.31) / 81, -0.15 + 0.3 * (j + 0.57) / 81);
+        const double want = profileAt(double(path.closest(Vec2f(float(p.x), float(p.y))).offset));
+        const int k = pieceAt(s, p), k1 = pieceAt(s1, p);
+        ASSERT_GE(k, 0);
+        ASSERT_GE(k1, 0);
+        worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
+        worst_one = std::max(worst_one, std::fabs(s1.pieces()[size_t(k1)].plane.at(p) - want));
+      }
+    std::printf("[          ] %s: %zu parts, height off by at most %.2e mm (one corner %.2e)\n", c.name, parts.size(),
+                worst, worst_one);
+    EXPECT_LT(worst, 2.5e-4) << c.name;
+    EXPECT_GT(worst_one, 2e-3) << c.name;
+  }
+  // Doubling back past kMaxCornerTurn at a corner: refused.
+  std::vector<Groove> parts;
+  auto [c, d] = legs({0, 0}, dirOf(10), dirOf(188));
+  d.t_hi = 0.05;
+  Groove e = along(dirOf(100), 0, 0);
+  EXPECT_FALSE(chainParts({c, d, e}, 0.26, region, parts));
+  EXPECT_TRUE(parts.empty());
+}
+
 // A path that passes the region twice, with its vertices far outside it: a loop that crosses
 // itself at 40 and 90 degrees, a hairpin whose legs' pile-ups overlap (0.11 mm apart, each 0.14
 // mm wide) and one whose legs are 3 degrees apart. The surface of passParts is the explicit

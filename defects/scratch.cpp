@@ -264,8 +264,21 @@ PathPoint ScratchPath::closest(Vec2f p, float max_dist) const {
   return pointOn(p, best_i, best_t, best_d2, max_dist);
 }
 
-void ScratchPath::closestBranches(Vec2f p, float max_dist, std::vector<PathPoint>& out) const {
+PathPoint ScratchPath::closestOnSegments(Vec2f p, float max_dist, size_t first, size_t last) const {
+  if (pts_.size() < 2) return PathPoint();
+  const size_t nseg = pts_.size() - 1;
+  float best_d2 = std::numeric_limits<float>::infinity();
+  size_t best_i = nseg;
+  float best_t = 0;
+  for (size_t i = first; i <= last && i < nseg; ++i) closestOnSegment(i, p, best_d2, best_i, best_t);
+  if (best_i >= nseg) return PathPoint();
+  return pointOn(p, best_i, best_t, best_d2, max_dist);
+}
+
+void ScratchPath::closestBranches(Vec2f p, float max_dist, std::vector<PathPoint>& out,
+                                  std::vector<std::pair<size_t, size_t>>* runs) const {
   out.clear();
+  if (runs) runs->clear();
   if (pts_.size() < 2) return;
   const size_t nseg = pts_.size() - 1;
   // The segments within max_dist (the test closest makes), each with its nearest point, in path
@@ -307,10 +320,13 @@ void ScratchPath::closestBranches(Vec2f p, float max_dist, std::vector<PathPoint
         first = out.size();
       }
       out.push_back(pp);
+      if (runs) runs->push_back({within[a].i, within[b - 1].i});
     }
     a = b;
   }
   if (first > 0) std::rotate(out.begin(), out.begin() + std::ptrdiff_t(first), out.begin() + std::ptrdiff_t(first) + 1);
+  if (runs && first > 0)
+    std::rotate(runs->begin(), runs->begin() + std::ptrdiff_t(first), runs->begin() + std::ptrdiff_t(first) + 1);
 }
 
 PathPoint ScratchPath::pointOn(Vec2f p, size_t best_i, float best_t, float best_d2, float max_dist) const {

@@ -77,7 +77,12 @@ class ScratchPath {
   // segments that each come within max_dist of p, so a path that leaves that disc and comes back
   // into it (a hairpin, a loop, a path that crosses itself) has one branch for each pass. out[0]
   // is closest(p, max_dist), the others follow in path order; empty when nothing is that near.
-  void closestBranches(Vec2f p, float max_dist, std::vector<PathPoint>& out) const;
+  // With runs, also each branch's run of segments (first and last index), in the order of out.
+  void closestBranches(Vec2f p, float max_dist, std::vector<PathPoint>& out,
+                       std::vector<std::pair<size_t, size_t>>* runs = nullptr) const;
+  // The closest point to p of segments first to last alone (as closest, which it equals where the
+  // path's closest point lies on them).
+  PathPoint closestOnSegments(Vec2f p, float max_dist, size_t first, size_t last) const;
 
   // An interior vertex where the path turns by at least kCornerTurn (rad): a polyline's corner, or
   // a kink between two cubic curves (the small turns of a flattened curve stay below it). The

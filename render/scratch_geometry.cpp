@@ -377,7 +377,6 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
     Soup& out = soups[blk];
     out.count_only = opt.count_only;
     std::vector<const Scratch*> near;
-    std::vector<PathPoint> near_at;  // per scratch in `near`: its path's point nearest the cell's centre
     // The ends of the scratches in `near`: where the scale is still > 0 at an end, the height drops
     // to 0 across the line through it perpendicular to the path (PathPoint::beyond > 0 past it).
     struct End {
@@ -387,12 +386,18 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       bool abrupt = false;
     };
     std::vector<std::array<End, 2>> ends;
-    std::vector<std::vector<char>> kinks;  // per scratch in `near`: which profile vertices' kinks cut the cell
-    // Per scratch in `near` whose path passes the cell more than once (ScratchPath::closestBranches:
-    // a hairpin, a loop that crosses itself): each pass's line (a point and its unit tangent)
-    // at the cell's centre; empty for one pass.
+    // Per scratch in `near`: its legs near the cell, each a run of consecutive segments (first and
+    // last index): the runs of its passes (ScratchPath::closestBranches), each split at the path's
+    // corners. Its kinks are each leg's own, from the closest point on that leg alone.
+    std::vector<std::vector<std::pair<size_t, size_t>>> legs;
+    // Per scratch in `near`, per leg: which profile vertices' kinks cut the cell.
+    std::vector<std::vector<std::vector<char>>> kinks;
+    // Per scratch in `near` with two legs or more near the cell (a hairpin, a loop that crosses
+    // itself, the legs of a corner): each leg's line (a point and its unit tangent) at the cell's
+    // centre; empty for one leg.
     std::vector<std::vector<std::pair<Vec2d, Vec2d>>> passes;
     std::vector<PathPoint> branches;
+    std::vector<std::pair<size_t, size_t>> runs;
     std::vector<uint32_t> tris;
     std::vector<std::vector<Vtx>> polys, next;
     constexpr uint32_t kNoVertex = ~uint32_t(0);
@@ -407,35 +412,48 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
     auto eval = [&](Vec2d q) {
       KinkValues f;
       const Vec2f p(float(q.x), float(q.y));
-      // Before all others, where a path passing more than once hands over from one pass to the
-      // next (Scratch::height takes the closest point): |b_i| - |b_j| for each two of its passes,
-      // b the signed distance from the pass's line. Within each side the closest point is on one
-      // pass and the kinks below are affine.
-      auto dist = [&](const std::pair<Vec2d, Vec2d>& l) {
+      // Before all others, where a path passing more than once (or turning a corner) hands over
+      // from one leg to the next (Scratch::height takes the closest point): |b_i| - |b_j| for each
+      // two of its legs, b the signed distance from the leg's line. Within each side the closest
+      // point is on one leg and the kinks below are affine. First each b_i itself: |b_i| bends
+      // along the leg's line, so where that line crosses the cell (near a corner's vertex, at a
+      // loop's crossing) the chord of |b_i| - |b_j| = 0 over a piece across it missed the handover.
+      auto side = [&](const std::pair<Vec2d, Vec2d>& l) {
         const Vec2d d = q - l.first;
-        return std::fabs(d.x * l.second.y - d.y * l.second.x);
+        return d.x * l.second.y - d.y * l.second.x;
       };
       for (const auto& ps : passes)
+        for (const auto& l : ps) f.push_back(side(l));
+      for (const auto& ps : passes)
         for (size_t i = 0; i < ps.size(); ++i)
-          for (size_t j = i + 1; j < ps.size(); ++j) f.push_back(dist(ps[i]) - dist(ps[j]));
+          for (size_t j = i + 1; j < ps.size(); ++j) f.push_back(std::fabs(side(ps[i])) - std::fabs(side(ps[j])));
       // First every scratch's own kinks, then where two trade places: h_a - h_b is affine only
       // within pieces that are already on one facet of each (cut the other way round, the chord
       // of its bent zero set would leave pieces straddling it).
       for (size_t k = 0; k < near.size(); ++k) {
         const Scratch* sc = near[k];
         float reach = float(sc->referenceProfile().halfExtent()) * sc->maxScale() + far;
-        PathPoint pp = sc->path().closest(p, reach);
-        float kk = pp.found ? sc->scaleAt(pp.s) : 0.0f;
         const std::vector<Vec2d>& pts = sc->referenceProfile().pts;
-        // Past an abrupt end (scale > 0 there) the kink lines run on along the end's tangent, so
-        // that a piece across the end line is cut along them on both sides before the end line
-        // cuts it. (Until 2026-11-28 they were undefined past the end: such a piece was not cut
-        // exactly, and the end's cell kept a facet across kinks, a bright column one cell wide at
-        // a blunt end's pile-up under the bar light that finer cells narrowed. Past a faded end
-        // the scale is 0 and there is nothing to cut.)
-        for (size_t i = 0; i < pts.size(); ++i)
-          if (kinks[k][i])
-            f.push_back(pp.found && kk > 0 ? double(pp.offset) - double(kk) * pts[i].x : std::nan(""));
+        // Each leg's kinks from the closest point on that leg alone: the path's closest point
+        // jumps to another leg where the two hand over (on a cell's edge, too: at the midline of a
+        // hairpin's legs a tie goes to the lower segment), and a kink function taken from whichever
+        // leg is the nearer jumps there, so that a piece on one leg's side, with corners on that
+        // line, was cut at the wrong places or not at all. (Until 2026-12: the bright streak along
+        // the midline of a U-turn with the perturbation, where a pile-up's outer kink lay in the
+        // cell beside the midline and the corners on it took the other leg's scale.)
+        for (size_t g = 0; g < legs[k].size(); ++g) {
+          PathPoint pp = sc->path().closestOnSegments(p, reach, legs[k][g].first, legs[k][g].second);
+          float kk = pp.found ? sc->scaleAt(pp.s) : 0.0f;
+          // Past an abrupt end (scale > 0 there) the kink lines run on along the end's tangent, so
+          // that a piece across the end line is cut along them on both sides before the end line
+          // cuts it. (Until 2026-11-28 they were undefined past the end: such a piece was not cut
+          // exactly, and the end's cell kept a facet across kinks, a bright column one cell wide at
+          // a blunt end's pile-up under the bar light that finer cells narrowed. Past a faded end
+          // the scale is 0 and there is nothing to cut.)
+          for (size_t i = 0; i < pts.size(); ++i)
+            if (kinks[k][g][i])
+              f.push_back(pp.found && kk > 0 ? double(pp.offset) - double(kk) * pts[i].x : std::nan(""));
+        }
         // An abrupt end's line (across the end tangent, where the height drops to 0), near that end.
         for (int e = 0; e < 2; ++e) {
           const End& en = ends[k][e];
@@ -465,10 +483,10 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       const Vec2d q00 = corner(c.i0, c.j0), q10 = corner(c.i0 + c.size, c.j0),
                   q11 = corner(c.i0 + c.size, c.j0 + c.size), q01 = corner(c.i0, c.j0 + c.size);
       near.clear();
-      near_at.clear();
       near_h.clear();
       passes.clear();
-      bool passing = false;  // some path passes the cell twice
+      legs.clear();
+      bool passing = false;  // some path has two legs near the cell (two passes, or a corner's legs)
       if (c.size == 1) {
         Box2 cb{Vec2f(float(q00.x), float(q00.y)), Vec2f(float(q11.x), float(q11.y))};
         Box2 cb_h{cb.lo - Vec2f(far, far), cb.hi + Vec2f(far, far)};
@@ -484,13 +502,40 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
           near_h.push_back(sc);
           if (sc->support().overlaps(cb) && pc.distance <= reach) {
             near.push_back(sc);
-            near_at.push_back(pc);
-            // Its passes, where it comes back into the reach.
+            // Its passes, where it comes back into the reach, and their legs between corners.
+            const ScratchPath& path = sc->path();
+            path.closestBranches(centre, reach, branches, &runs);
+            legs.emplace_back();
+            for (const auto& r : runs) {
+              size_t from = r.first;
+              for (const ScratchPath::Corner& cn : path.corners())
+                if (cn.vertex > r.first && cn.vertex <= r.second) {
+                  legs.back().push_back({from, cn.vertex - 1});
+                  from = cn.vertex;
+                }
+              legs.back().push_back({from, r.second});
+            }
             passes.emplace_back();
-            sc->path().closestBranches(centre, reach, branches);
-            if (branches.size() >= 2) {
-              for (const PathPoint& b : branches)
-                passes.back().push_back({Vec2d(b.point.x, b.point.y), Vec2d(b.tangent.x, b.tangent.y)});
+            if (legs.back().size() >= 2) {
+              // Each leg's line: its segment nearest the centre.
+              const std::vector<Vec2d>& pp = path.points();
+              const Vec2d cd(centre.x, centre.y);
+              for (const auto& lg : legs.back()) {
+                double best = 1e300;
+                std::pair<Vec2d, Vec2d> line;
+                for (size_t i = lg.first; i <= lg.second; ++i) {
+                  const Vec2d d = pp[i + 1] - pp[i];
+                  const double l2 = dot(d, d);
+                  if (!(l2 > 0)) continue;
+                  const double t = std::clamp(dot(cd - pp[i], d) / l2, 0.0, 1.0);
+                  const Vec2d e = pp[i] + d * t - cd;
+                  if (dot(e, e) < best) {
+                    best = dot(e, e);
+                    line = {pp[i], d / std::sqrt(l2)};
+                  }
+                }
+                passes.back().push_back(line);
+              }
               passing = true;
             }
           }
@@ -506,19 +551,25 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       kinks.resize(near.size());
       for (size_t k = 0; k < near.size(); ++k) {
         const std::vector<Vec2d>& pts = near[k]->referenceProfile().pts;
-        kinks[k].assign(pts.size(), 1);
-        // The nearest point found above (a scratch is in `near` only within its cross-section's
-        // reach plus half the cell's diagonal, which is inside the reach plus `far` that the
-        // query for it at the cell's centre used to have).
-        const PathPoint& pc = near_at[k];
-        const double kc = pc.beyond <= 0 ? double(near[k]->scaleAt(pc.s)) : 0.0;
-        if (!(kc > 0)) continue;
-        double last = pts[0].x;
-        for (size_t i = 1; i < pts.size(); ++i) {
-          if (pts[i].x > last && kc * (pts[i].x - last) <= merge)
-            kinks[k][i] = 0;
-          else
-            last = pts[i].x;
+        kinks[k].resize(legs[k].size());
+        for (size_t g = 0; g < legs[k].size(); ++g) {
+          kinks[k][g].assign(pts.size(), 1);
+          // The leg's point nearest the cell's centre (within the reach plus `far`, as the
+          // query for the scratch at the centre).
+          const float reach = float(near[k]->referenceProfile().halfExtent()) * near[k]->maxScale() +
+                              float(0.5 * std::hypot(q11.x - q00.x, q11.y - q00.y)) + far;
+          const PathPoint pc = near[k]->path().closestOnSegments(
+              Vec2f(float(0.5 * (q00.x + q11.x)), float(0.5 * (q00.y + q11.y))), reach, legs[k][g].first,
+              legs[k][g].second);
+          const double kc = pc.found && pc.beyond <= 0 ? double(near[k]->scaleAt(pc.s)) : 0.0;
+          if (!(kc > 0)) continue;
+          double last = pts[0].x;
+          for (size_t i = 1; i < pts.size(); ++i) {
+            if (pts[i].x > last && kc * (pts[i].x - last) <= merge)
+              kinks[k][g][i] = 0;
+            else
+              last = pts[i].x;
+          }
         }
       }
       // Cells where the composite height can jump (two scratches meet, two passes of one path with

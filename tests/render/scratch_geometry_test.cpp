@@ -591,3 +591,69 @@ TEST(ScratchNormalMap, GradientIsTheFacetSlopeAndOffWithoutBumpShading) {
   s.shade(q, flat);
   EXPECT_EQ(flat.height_grad.y, 0.0f);
 }
+
+// A U-turn (a hairpin whose legs' pile-ups nearly meet at the midline, its turn in the cut): each
+// triangle between the legs lies on the height field, checked at its centroid. The path's closest
+// point hands over from one leg to the other along the midline, on which the cells' edges lie, and
+// along the inner bisectors of the turn's corners. Before, the kinks were taken from the path's
+// closest point: at the midline's vertices that is a tie, which goes to the lower leg, so a cell
+// beside the midline on the upper leg's side had the lower leg's scale (the perturbation: another
+// arc position) at its lower corners, and the upper pile-up's outer kink in it was cut in the wrong
+// place. And a corner's legs were one pass, so the inner bisectors (where the closest point jumps
+// from one leg to the other) were not cut. Under a ring light the U-turn of 0.18 mm showed a bright
+// streak along its midline that finer cells narrowed.
+TEST(ScratchGeometry, AUTurnsLegsAreEachCutAlongTheirOwnKinks) {
+  TriangleMesh plate = plate20();
+  ScratchGeometryOptions o;
+  o.cell_mm = 0.005;  // cells of 20 / 4096 mm, with edges on the midline y = 10
+  const double cell = 20.0 / 4096, D = 0.05;
+  const ScratchPath uturn =
+      ScratchPath::polyline({{6.0, 10.0 - D}, {10.05, 10.0 - D}, {10.05, 10.0 + D}, {6.0, 10.0 + D}});
+  for (double amplitude : {0.0, 0.15}) {
+    ScratchPerturbation pert;
+    pert.noise_amplitude = amplitude;
+    pert.noise_wavelength_mm = 3.0;
+    pert.noise_seed = 5;
+    // The legs' scales at x = 9.5 (the lower leg at arc position 3.5, the upper at L - 3.5): the
+    // cross-section is sized so that the upper pile-up's outer end lies half a cell above the
+    // midline there.
+    const Scratch probe = Scratch::fromProfile(uturn, pileUpProfile(), pert);
+    const double ku = probe.scaleAt(float(uturn.length() - 3.5)), kl = probe.scaleAt(3.5f);
+    if (amplitude > 0) {
+      ASSERT_GT(std::fabs(ku - kl), 0.02);  // the legs there at different scales
+    }
+    const double e = (D - 0.5 * cell) / ku;
+    std::vector<Vec2d> pts = pileUpProfile().pts;
+    for (Vec2d& q : pts) q = q * (e / 0.04);
+    Scratch s = Scratch::fromProfile(uturn, Profile::fromPolyline(pts), pert);
+    std::vector<const Scratch*> list{&s};
+    TriangleMesh m = scratchedMesh(plate, list, o);
+    size_t near = 0, off = 0, off_midline = 0, off_turn = 0;
+    double worst = 0;
+    for (size_t t = 0; t < m.triangleCount(); ++t) {
+      const uint32_t* id = &m.indices[3 * t];
+      const Vec2f a = m.uvs[id[0]], b = m.uvs[id[1]], c = m.uvs[id[2]];
+      if (!(std::fabs(cross(b - a, c - a)) > 1e-14f)) continue;  // a wall
+      const Vec2f g = (a + b + c) / 3.0f;
+      // Between the legs, up to the turn (past the turn's corners the kinks are arcs about them,
+      // cut along their chords).
+      if (!(g.x > 9.0f && g.x < 10.05f && std::fabs(g.y - 10.0f) < D)) continue;
+      ++near;
+      const double hi = (double(m.heights[id[0]]) + m.heights[id[1]] + m.heights[id[2]]) / 3.0;
+      const double err = std::fabs(hi - double(scratchHeight(list, g)));
+      worst = std::max(worst, err);
+      // (A jump smaller than the mesh's tolerance for one, 64 float steps of the chart's largest
+      // coordinate, 1.5e-4 mm here, is kept as a ramp: the scale's step across a corner's inner
+      // bisector leaves up to 4e-5 mm.)
+      if (err > 1e-4) {
+        ++off;
+        off_midline += std::fabs(g.y - 10.0f) < cell && g.x < 10.05 - D;
+        off_turn += g.x >= 10.05 - D;  // where the corners' inner bisectors are
+      }
+    }
+    EXPECT_GT(near, 5000u);
+    EXPECT_EQ(off, 0u) << "perturbation " << amplitude << ": " << off << " of " << near
+                       << " triangles off the height field (" << off_midline << " beside the midline, "
+                       << off_turn << " at the turn), worst " << worst << " mm";
+  }
+}

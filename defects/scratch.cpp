@@ -104,6 +104,12 @@ std::pair<double, double> ScratchPath::legSpan(const Corner& c) const {
   return {i > 0 ? corners_[i - 1].s : 0.0, i + 1 < corners_.size() ? corners_[i + 1].s : length()};
 }
 
+std::pair<double, double> ScratchPath::spanAt(double s) const {
+  const Corner *b = corners_.data(), *e = b + corners_.size();
+  const Corner* after = std::upper_bound(b, e, s, [](double v, const Corner& c) { return v < c.s; });
+  return {after == b ? 0.0 : (after - 1)->s, after == e ? length() : after->s};
+}
+
 ScratchPath ScratchPath::sub(double s0, double s1) const {
   const double L = length();
   s0 = std::clamp(s0, 0.0, L);
@@ -275,7 +281,7 @@ PathPoint ScratchPath::closestOnSegments(Vec2f p, float max_dist, size_t first, 
   return pointOn(p, best_i, best_t, best_d2, max_dist);
 }
 
-void ScratchPath::closestBranches(Vec2f p, float max_dist, std::vector<PathPoint>& out,
+void ScratchPath::closestBranches(Vec2f p, float max_dist, std::vector<PathPoint>& out, float rise,
                                   std::vector<std::pair<size_t, size_t>>* runs) const {
   out.clear();
   if (runs) runs->clear();
@@ -300,28 +306,50 @@ void ScratchPath::closestBranches(Vec2f p, float max_dist, std::vector<PathPoint
   std::sort(within.begin(), within.end(), [](const Near& a, const Near& b) { return a.i < b.i; });
   within.erase(std::unique(within.begin(), within.end(), [](const Near& a, const Near& b) { return a.i == b.i; }),
                within.end());
-  // Runs of consecutive segments; the closest point of each (the nearest, on a tie the lower
-  // segment, as closestOnSegment keeps it). The run that holds the path's closest point goes
-  // first, so that out[0] is closest(p, max_dist).
+  // Runs of consecutive segments, each cut further where the path goes away by `rise` and comes
+  // back (below); the closest point of each branch (the nearest, on a tie the lower segment, as
+  // closestOnSegment keeps it). The branch that holds the path's closest point goes first, so
+  // that out[0] is closest(p, max_dist).
   size_t first = 0;
   float first_d2 = std::numeric_limits<float>::infinity();
+  // The branch of within[g0..g1] with its nearest point within[best].
+  auto emit = [&](size_t best, size_t g0, size_t g1) {
+    const float d2 = within[best].d2;
+    PathPoint pp = pointOn(p, within[best].i, within[best].t, d2, max_dist);
+    if (!pp.found) return;
+    // (Strictly nearer: on a tie the lower segment, as in closest.)
+    if (d2 < first_d2) {
+      first_d2 = d2;
+      first = out.size();
+    }
+    out.push_back(pp);
+    if (runs) runs->push_back({within[g0].i, within[g1].i});
+  };
   for (size_t a = 0; a < within.size();) {
     size_t b = a + 1;
     while (b < within.size() && within[b].i == within[b - 1].i + 1) ++b;
-    size_t best = a;
-    for (size_t k = a + 1; k < b; ++k)
-      if (within[k].d2 < within[best].d2) best = k;
-    const float d2 = within[best].d2;
-    PathPoint pp = pointOn(p, within[best].i, within[best].t, d2, max_dist);
-    if (pp.found) {
-      // (Strictly nearer: on a tie the lower segment, as in closest.)
-      if (d2 < first_d2) {
-        first_d2 = d2;
-        first = out.size();
+    // Within the run the distance along the path is convex on each segment, so between two
+    // segments' nearest points it peaks at their shared vertex. A new branch starts where, since
+    // the branch's nearest point so far, it has risen by `rise` and fallen by as much again.
+    size_t best = a, g0 = a;
+    float best_d = std::sqrt(within[a].d2), peak = 0;
+    for (size_t k = a + 1; k < b; ++k) {
+      const Vec2f v = ptsf_[within[k].i] - p;
+      peak = std::max(peak, std::sqrt(v.x * v.x + v.y * v.y));
+      const float d = std::sqrt(within[k].d2);
+      if (peak >= best_d + rise && d <= peak - rise) {
+        emit(best, g0, k - 1);
+        g0 = k;
+        best = k;
+        best_d = d;
+        peak = 0;
+      } else if (within[k].d2 < within[best].d2) {
+        best = k;
+        best_d = d;
+        peak = 0;
       }
-      out.push_back(pp);
-      if (runs) runs->push_back({within[a].i, within[b - 1].i});
     }
+    emit(best, g0, b - 1);
     a = b;
   }
   if (first > 0) std::rotate(out.begin(), out.begin() + std::ptrdiff_t(first), out.begin() + std::ptrdiff_t(first) + 1);

@@ -77,8 +77,12 @@ class ScratchPath {
   // segments that each come within max_dist of p, so a path that leaves that disc and comes back
   // into it (a hairpin, a loop, a path that crosses itself) has one branch for each pass. out[0]
   // is closest(p, max_dist), the others follow in path order; empty when nothing is that near.
-  // With runs, also each branch's run of segments (first and last index), in the order of out.
+  // A run is also cut where the path goes away from p by `rise` beyond its nearest point so far
+  // and comes back by as much (a hairpin whose turn lies within max_dist of p, as it does when the
+  // reach is long, still has its two legs). With runs, also each branch's segments (first and
+  // last index), in the order of out.
   void closestBranches(Vec2f p, float max_dist, std::vector<PathPoint>& out,
+                       float rise = std::numeric_limits<float>::infinity(),
                        std::vector<std::pair<size_t, size_t>>* runs = nullptr) const;
   // The closest point to p of segments first to last alone (as closest, which it equals where the
   // path's closest point lies on them).
@@ -105,6 +109,9 @@ class ScratchPath {
   // The arc positions where corner c's legs end: the corners before and after it, or the path's
   // ends.
   std::pair<double, double> legSpan(const Corner& c) const;
+  // The arc positions of the corners around arc position s (the last before it and the first
+  // after it), or the path's ends: the straight run of the path that holds s.
+  std::pair<double, double> spanAt(double s) const;
 
  private:
   void finish();  // arc lengths, box, float copy, segment grid

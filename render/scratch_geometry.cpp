@@ -438,7 +438,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
         // jumps to another leg where the two hand over (on a cell's edge, too: at the midline of a
         // hairpin's legs a tie goes to the lower segment), and a kink function taken from whichever
         // leg is the nearer jumps there, so that a piece on one leg's side, with corners on that
-        // line, was cut at the wrong places or not at all. (Until 2026-12: the bright streak along
+        // line, was cut at the wrong places or not at all. (Until 2026-11-29: the bright streak along
         // the midline of a U-turn with the perturbation, where a pile-up's outer kink lay in the
         // cell beside the midline and the corners on it took the other leg's scale.)
         for (size_t g = 0; g < legs[k].size(); ++g) {
@@ -504,7 +504,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
             near.push_back(sc);
             // Its passes, where it comes back into the reach, and their legs between corners.
             const ScratchPath& path = sc->path();
-            path.closestBranches(centre, reach, branches, &runs);
+            path.closestBranches(centre, reach, branches, std::numeric_limits<float>::infinity(), &runs);
             legs.emplace_back();
             for (const auto& r : runs) {
               size_t from = r.first;

@@ -533,6 +533,60 @@ TEST(ScratchPath, BranchesAreThePassesNearAPoint) {
   EXPECT_GE(several, 10);  // the curve folds back: 15 of these points see it more than once
 }
 
+// With a long reach a hairpin's turn is within it, and the two legs are one run of segments. The
+// `rise` argument still tells them apart: a new branch where the path has gone away by more than
+// that from the nearest point so far and come back by as much (a corner's inner side, where it
+// goes away and back by less, stays one).
+TEST(ScratchPath, ABranchAlsoEndsWhereThePathGoesAwayAndComesBack) {
+  std::vector<PathPoint> b;
+  const ScratchPath hairpin = ScratchPath::polyline({{-5, 1}, {5, 1}, {5, -1}, {-5, -1}});
+  hairpin.closestBranches({0, 0}, 6.0f, b, 1.0f);  // out to the turn, 5.1 away, and back
+  ASSERT_EQ(b.size(), 2u);
+  EXPECT_NEAR(b[0].s, 5, 1e-5);
+  EXPECT_NEAR(b[1].s, 17, 1e-5);
+  EXPECT_EQ(b[0].s, hairpin.closest({0, 0}, 6.0f).s);
+  hairpin.closestBranches({0, 0}, 6.0f, b, 4.5f);  // it rises by 4.1 only
+  EXPECT_EQ(b.size(), 1u);
+  hairpin.closestBranches({0, 0}, 6.0f, b);  // the default: runs alone
+  EXPECT_EQ(b.size(), 1u);
+  // A right angle: (-1, 1) is 1 from both legs and 1.41 from the vertex between them.
+  const ScratchPath corner = ScratchPath::polyline({{-5, 0}, {0, 0}, {0, 5}});
+  corner.closestBranches({-1, 1}, 3.0f, b, 0.3f);
+  ASSERT_EQ(b.size(), 2u);
+  EXPECT_NEAR(b[0].s, 4, 1e-5);
+  EXPECT_NEAR(b[1].s, 6, 1e-5);
+  corner.closestBranches({-1, 1}, 3.0f, b, 0.5f);
+  EXPECT_EQ(b.size(), 1u);
+  corner.closestBranches({-0.2f, 0.1f}, 3.0f, b, 0.3f);  // near the vertex: one
+  EXPECT_EQ(b.size(), 1u);
+  // A winding curve: each branch the nearest point of the path around it, and at least as many
+  // as without `rise`.
+  const ScratchPath p =
+      ScratchPath::bezier({{5, 5}, {20, 40}, {40, -20}, {60, 20}, {70, 40}, {40, 50}, {30, 30}}, 1e-3);
+  Rng rng(12, Stream::Test);
+  std::vector<PathPoint> plain;
+  int more = 0;
+  for (int k = 0; k < 300; ++k) {
+    const float r = 10.0f + 30.0f * float(rng.uniformD());
+    const Vec2d q = p.pointAt(p.length() * rng.uniformD()) + Vec2d(rng.uniformD() - 0.5, rng.uniformD() - 0.5) * 20.0;
+    const Vec2f qf(float(q.x), float(q.y));
+    p.closestBranches(qf, r, b, 2.0f);
+    p.closestBranches(qf, r, plain);
+    ASSERT_GE(b.size(), plain.size()) << k;
+    if (b.empty()) continue;
+    EXPECT_EQ(b[0].s, plain[0].s);
+    more += b.size() > plain.size();
+    for (const PathPoint& x : b) {
+      EXPECT_LE(x.distance, r);
+      for (double ds : {-0.3, -0.05, 0.05, 0.3}) {
+        const Vec2d a = p.pointAt(double(x.s) + ds);
+        EXPECT_GE(std::hypot(a.x - q.x, a.y - q.y), double(x.distance) - 1e-3) << k;
+      }
+    }
+  }
+  EXPECT_GE(more, 10);
+}
+
 TEST(ScratchPath, SideAndEnds) {
   ScratchPath p = ScratchPath::polyline({{0, 0}, {10, 0}, {10, 10}});  // right, then up (left turn)
   PathPoint a = p.closest({5, 1});

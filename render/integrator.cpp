@@ -955,8 +955,12 @@ class Tracer {
       // that crosses itself), each at its own closest point; the first is the path's closest.
       // (With the closest point alone, a pass farther than that was missing from the footprint's
       // surface, shadows and reflections: docs/grooves.md, "A path that comes back".)
+      // A pass is one where the path has gone away by more than the groove's half-width and the
+      // footprint's radius and come back (else it is the same pass: a corner's inner side, a
+      // bend): with a long reach (a dome light's, near the horizon) a hairpin's turn is within it,
+      // and the two legs were one run of segments, of which only the nearer leg was taken.
       thread_local std::vector<PathPoint> passes;
-      sc.path().closestBranches(sp.uv, r, passes);
+      sc.path().closestBranches(sp.uv, r, passes, fpr + float(sc.referenceProfile().halfExtent()) * sc.maxScale());
       for (const PathPoint& pp : passes) out.push_back({&sc, pp});
     });
   }
@@ -1306,22 +1310,65 @@ class Tracer {
   // the footprint's own leg is one of its two), within `reach` (uv) of the footprint's centre: the
   // groove as its two legs, each straight along its segment at the vertex, and the round outer side
   // between them (groove::area::cornerParts), in the frame of gs, with the cross-section at the
-  // vertex. Its profile is appended to `profiles` (reserved by the
-  // caller). False where there is none, or the path has faded out at the vertex.
+  // vertex. Where the corners next to it along the path lie within `reach` too (a hook, a U-turn
+  // at two corners, a zigzag; up to kMaxChain corners in all), the groove takes them together
+  // (groove::area::chainParts, over `bound`: the largest region the caller builds), so that their
+  // legs and outer sides meet as the explicit geometry has them instead of a leg stopping at the
+  // next corner. The profiles (one per corner) are appended to `profiles` (reserved by the
+  // caller); `span` is the arc range the groove covers. False where there is no corner, or the path
+  // has faded out at the vertex.
   static constexpr double kCornerSector = 15.0 * M_PI / 180.0;
-  static bool cornerGroove(const SurfacePoint& sp, const NearGroove& ng, int id, float reach, const GrooveSet& gs,
-                           double mm, std::vector<Profile>& profiles, std::vector<groove::area::Groove>& parts,
-                           groove::area::Groove& out) {
+  static constexpr size_t kMaxChain = 12;
+  // The corners cornerGroove takes for ng: `at` the one cornerAround gives, [lo, hi] the chain
+  // around it (on along the path both ways while the next corner is within `reach` of the
+  // footprint's centre F, at most kMaxChain; the one corner alone where the path has faded out at
+  // one of them). False where there is no corner.
+  static bool chainRange(const NearGroove& ng, Vec2d F, double reach, size_t& at, size_t& lo, size_t& hi) {
+    const ScratchPath& path = ng.sc->path();
+    // (A corner next to the closest point's segment, so that the footprint's own leg is there.)
+    const ScratchPath::Corner* c = path.cornerAround(double(ng.pp.s), F, reach);
+    if (!c) return false;
+    const std::vector<ScratchPath::Corner>& cs = path.corners();
+    at = lo = hi = size_t(c - cs.data());
+    auto within = [&](size_t i) { return std::hypot(cs[i].p.x - F.x, cs[i].p.y - F.y) <= reach; };
+    while (hi - lo + 1 < kMaxChain && ((lo > 0 && within(lo - 1)) || (hi + 1 < cs.size() && within(hi + 1)))) {
+      if (lo > 0 && within(lo - 1)) --lo;
+      if (hi - lo + 1 < kMaxChain && hi + 1 < cs.size() && within(hi + 1)) ++hi;
+    }
+    for (size_t i = lo; i <= hi && lo < hi; ++i)
+      if (!(ng.sc->scaleAt(float(cs[i].s)) > 0)) hi = lo = at;
+    return true;
+  }
+  static bool cornerGroove(const SurfacePoint& sp, const NearGroove& ng, int id, size_t at, size_t lo, size_t hi,
+                           const groove::area::Poly& bound, const GrooveSet& gs, double mm, std::vector<Profile>& profiles,
+                           std::vector<groove::area::Groove>& parts, groove::area::Groove& out,
+                           std::pair<double, double>& span, const std::vector<groove::area::Groove>* others,
+                           bool& with_others) {
     const ScratchPath& path = ng.sc->path();
     const Vec2d F(double(sp.uv.x), double(sp.uv.y));
-    // (A corner next to the closest point's segment, so that the footprint's own leg is there.)
-    const ScratchPath::Corner* c = path.cornerAround(double(ng.pp.s), F, double(reach));
-    if (!c) return false;
+    const std::vector<ScratchPath::Corner>& cs = path.corners();
+    const ScratchPath::Corner* c = &cs[at];
+    const size_t profiles_at = profiles.size();
+    with_others = false;
+    // With the others, then (past chainParts' caps) without them; each attempt's profiles are
+    // dropped when it fails.
+    for (const std::vector<groove::area::Groove>* o : {others, static_cast<const std::vector<groove::area::Groove>*>(nullptr)}) {
+      if (o || lo < hi) {
+        if (chainGroove(sp, ng, id, lo, hi, bound, gs, mm, profiles, parts, out, o)) {
+          span = {path.legSpan(cs[lo]).first, path.legSpan(cs[hi]).second};
+          with_others = o != nullptr;
+          return true;
+        }
+        profiles.resize(profiles_at);
+      }
+      if (!others) break;  // (the one attempt without)
+    }
+    profiles.resize(profiles_at);
     const float k = ng.sc->scaleAt(float(c->s));
     if (!(k > 0)) return false;
-    NearGroove at = ng;
-    at.pp.s = float(c->s);
-    const double rho = scaleSlope(at, k, mm);
+    NearGroove at_c = ng;
+    at_c.pp.s = float(c->s);
+    const double rho = scaleSlope(at_c, k, mm);
     profiles.push_back(surfaceProfile(*ng.sc, k, mm));
     const Vec2d d = F - c->p;  // from the vertex to the footprint's centre (uv)
     auto leg = [&](Vec2d t, groove::area::Groove& g) {
@@ -1341,11 +1388,66 @@ class Tracer {
     // Each leg up to the path's end or its next corner, where it stops. (Run on straight, it
     // stood out past that corner as a spur: the corner fuzzer's c1_18, three corners within 0.7 mm,
     // 1.35% of pixels >= 10 that way, 0.09% now; docs/grooves.md, "Corners".)
-    const auto [s0, s1] = path.legSpan(*c);
-    a.t_lo = (s0 - c->s) * mm;
-    b.t_hi = (s1 - c->s) * mm;
+    span = path.legSpan(*c);
+    a.t_lo = (span.first - c->s) * mm;
+    b.t_hi = (span.second - c->s) * mm;
     if (!groove::area::cornerParts(a, b, kCornerSector, parts)) return false;
     out = a;
+    out.parts = &parts;
+    return true;
+  }
+
+  // The groove of ng's path along corners lo..hi (lo <= hi) of its path, all with the path's scale
+  // > 0 (cornerGroove). Leg 0 ends at corner lo, each later leg starts at a corner; each takes the
+  // cross-section at its corner (one profile per corner, appended to `profiles`). The interior legs'
+  // scale runs linear from corner to corner, so that neighbouring legs and fans meet without a
+  // step; the first and last take the path's slope at their corner, or, where the footprint's
+  // closest point lies on them, run linear to its scale there (as cornerGroove's own leg).
+  static bool chainGroove(const SurfacePoint& sp, const NearGroove& ng, int id, size_t lo, size_t hi,
+                          const groove::area::Poly& bound, const GrooveSet& gs, double mm, std::vector<Profile>& profiles,
+                          std::vector<groove::area::Groove>& parts, groove::area::Groove& out,
+                          const std::vector<groove::area::Groove>* others) {
+    const ScratchPath& path = ng.sc->path();
+    const std::vector<ScratchPath::Corner>& cs = path.corners();
+    const Vec2d F(double(sp.uv.x), double(sp.uv.y));
+    const size_t first_profile = profiles.size();
+    for (size_t i = lo; i <= hi; ++i) profiles.push_back(surfaceProfile(*ng.sc, ng.sc->scaleAt(float(cs[i].s)), mm));
+    auto scale = [&](size_t i) { return double(ng.sc->scaleAt(float(cs[i].s))); };
+    const double s_fp = double(ng.pp.s), k_fp = double(ng.sc->scaleAt(ng.pp.s));
+    thread_local std::vector<groove::area::Groove> legs;
+    legs.clear();
+    const size_t n = hi - lo + 2;
+    for (size_t j = 0; j < n; ++j) {
+      // Leg j: before corner lo (j = 0), else from corner lo + j - 1 on.
+      const size_t ci = j == 0 ? lo : lo + j - 1;
+      const ScratchPath::Corner& c = cs[ci];
+      const Vec2d t = j == 0 ? c.t_in : c.t_out, d = F - c.p;
+      groove::area::Groove g;
+      if (!placeGroove(sp, gs, Vec2f(float(t.x), float(t.y)), profiles[first_profile + (ci - lo)], *ng.sc, id, g))
+        return false;
+      g.t0 = (d.x * t.x + d.y * t.y) * mm;
+      g.b0 = (d.y * t.x - d.x * t.y) * mm;  // d . B, B = (-t.y, t.x)
+      const double k = scale(ci);
+      if (j == 0) {
+        g.t_lo = (path.legSpan(c).first - c.s) * mm;
+        g.t_hi = 0;
+      } else {
+        g.t_lo = 0;
+        g.t_hi = ((j + 1 < n ? cs[ci + 1].s : path.legSpan(c).second) - c.s) * mm;
+      }
+      if (j > 0 && j + 1 < n) {
+        g.rho = (scale(ci + 1) / k - 1) / g.t_hi;
+      } else {
+        NearGroove at_c = ng;
+        at_c.pp.s = float(c.s);
+        g.rho = scaleSlope(at_c, float(k), mm);
+        const double t_fp = (s_fp - c.s) * mm;
+        if (t_fp >= g.t_lo && t_fp <= g.t_hi && std::fabs(t_fp) > 1e-6) g.rho = (k_fp / k - 1) / t_fp;
+      }
+      legs.push_back(g);
+    }
+    if (!groove::area::chainParts(legs, kCornerSector, bound, parts, others)) return false;
+    out = legs.front();
     out.parts = &parts;
     return true;
   }
@@ -1386,9 +1488,10 @@ class Tracer {
     near_mm.clear();
     segs.clear();
     seg_at.assign(1, 0);
-    // (The grooves point into `profiles`: one profile per groove, one more at a corner, and
-    // kScaleSegments more for one cut into pieces along its path.)
-    profiles.reserve(near.size() * (2 + kScaleSegments));
+    // (The grooves point into `profiles`, which must not reallocate. Per pass at most: a chain's,
+    // one per corner (kMaxChain), again where a joined chain failed and it takes its own, its
+    // straight groove's, and kScaleSegments more for one cut into pieces along its path.)
+    profiles.reserve(near.size() * (2 * kMaxChain + 2 + kScaleSegments));
     // Each corner's parts (cornerGroove), one list per groove; the grooves point into them.
     thread_local std::vector<std::vector<ga::Groove>> corner_parts;
     if (corner_parts.size() < near.size()) corner_parts.resize(near.size());
@@ -1396,48 +1499,150 @@ class Tracer {
     // reach the region below (uv units).
     const double fp_r = std::max(std::hypot(lo.x, lo.y), std::hypot(hi.x, hi.y));
     const float along_uv = float((fp_r + std::max(double(view_reach), double(enlarge)) + 1e-3) / mm);
+    // A pass as a straight groove along its tangent at the closest point (k: its scale there, or
+    // inward of a faded tip), its profile appended to `profiles`; false where it has none.
+    auto straight = [&](size_t i, ga::Groove& g, float& k) {
+      NearGroove ng = near[i];
+      k = ng.sc->scaleAt(ng.pp.s);
+      if (!(k > 0) && !(k = depthInward(sp, along_uv, ng))) return false;
+      profiles.push_back(surfaceProfile(ng, float(mm)));
+      if (!placeGroove(sp, gs, ng.pp.tangent, profiles.back(), *ng.sc, int(i), g)) return false;
+      Vec2f rel = sp.uv - ng.pp.point;
+      g.t0 = double(rel.x * ng.pp.tangent.x + rel.y * ng.pp.tangent.y) * mm;
+      g.b0 = double(ng.pp.offset) * mm;
+      g.rho = scaleSlope(ng, k, mm);  // per mm of surface
+      // Along its tangent up to the corners around it, or the path's ends: past a corner the path
+      // turns, and a straight groove run on would stand where it is not (a pass found on a short
+      // leg of a knot of corners; docs/grooves.md, "Corners close together").
+      const auto [s0, s1] = ng.sc->path().spanAt(double(ng.pp.s));
+      g.t_lo = (s0 - double(ng.pp.s)) * mm;
+      g.t_hi = (s1 - double(ng.pp.s)) * mm;
+      return true;
+    };
+    // Each pass's corner groove (cornerGroove), built first over the largest region tried below.
+    const Vec2d F(double(sp.uv.x), double(sp.uv.y));
+    const double corner_reach = double(along_uv * float(M_SQRT2));
+    const double reach_max = std::max(double(view_reach), double(enlarge)) + 1e-3;
+    ga::Poly bound;
+    bound.push({lo.x - reach_max, lo.y - reach_max});
+    bound.push({hi.x + reach_max, lo.y - reach_max});
+    bound.push({hi.x + reach_max, hi.y + reach_max});
+    bound.push({lo.x - reach_max, hi.y + reach_max});
+    thread_local std::vector<char> has_corner;
+    thread_local std::vector<ga::Groove> corner_g;
+    thread_local std::vector<std::pair<double, double>> corner_span;
+    thread_local std::vector<size_t> corner_profile;
+    has_corner.assign(near.size(), 0);
+    corner_g.resize(near.size());
+    corner_span.resize(near.size());
+    corner_profile.resize(near.size());
+    thread_local std::vector<std::array<size_t, 3>> chain;  // cornerGroove's corners: at, lo, hi
+    chain.resize(near.size());
+    for (size_t i = 0; i < near.size(); ++i)
+      has_corner[i] = chainRange(near[i], F, corner_reach, chain[i][0], chain[i][1], chain[i][2]);
+    // Two passes of one path whose chains share a corner or a leg (a knot of corners, where the
+    // path goes away and comes back within the reach: nearGrooves) are one chain, the earlier
+    // pass's, within kMaxChain; the later pass lies on its legs and is left out below. (As two
+    // chains composited, each stood its legs' pile-ups over the other's grooves.)
+    thread_local std::vector<size_t> merged_into;
+    merged_into.assign(near.size(), size_t(-1));
+    thread_local std::vector<std::array<size_t, 3>> own;
+    own = chain;
+    for (size_t i = 0; i < near.size(); ++i)
+      for (size_t j = i + 1; j < near.size() && has_corner[i]; ++j) {
+        if (!has_corner[j] || near[j].sc != near[i].sc) continue;
+        const size_t lo = std::min(chain[i][1], chain[j][1]), hi = std::max(chain[i][2], chain[j][2]);
+        if (chain[j][1] > chain[i][2] + 1 || chain[i][1] > chain[j][2] + 1 || hi - lo + 1 > kMaxChain) continue;
+        chain[i][1] = lo;
+        chain[i][2] = hi;
+        has_corner[j] = 0;
+        merged_into[j] = i;
+      }
+    bool with_others = false;
+    auto build = [&](size_t i, const std::array<size_t, 3>& c, const std::vector<ga::Groove>* others) {
+      corner_profile[i] = profiles.size();
+      has_corner[i] = cornerGroove(sp, near[i], int(i), c[0], c[1], c[2], bound, gs, mm, profiles, corner_parts[i],
+                                   corner_g[i], corner_span[i], others, with_others);
+    };
+    // The same path's passes that are not corners and lie off a corner's chain (a V whose vertex
+    // lies far away: its other leg beside the corner's legs) join the corner's groove, straight,
+    // as candidates of its partition by nearness (ga::chainParts); as grooves of their own they
+    // were composited with it, a leg's pile-up standing over the other's groove. Each is a
+    // candidate over its straight run, between the normals at the corners that end it.
+    thread_local std::vector<std::vector<ga::Groove>> others;
+    thread_local std::vector<std::vector<size_t>> others_of;
+    thread_local std::vector<char> joined;
+    if (others.size() < near.size()) others.resize(near.size()), others_of.resize(near.size());
+    joined.assign(near.size(), 0);
+    thread_local std::vector<ga::Groove> straight_g;
+    thread_local std::vector<char> straight_ok;
+    straight_g.resize(near.size());
+    straight_ok.assign(near.size(), 2);  // 2: not built yet
+    for (size_t i = 0; i < near.size(); ++i) {
+      others[i].clear();
+      others_of[i].clear();
+      if (!has_corner[i]) continue;
+      const ScratchPath& path = near[i].sc->path();
+      const std::vector<ScratchPath::Corner>& cs = path.corners();
+      const double s_lo = path.legSpan(cs[chain[i][1]]).first, s_hi = path.legSpan(cs[chain[i][2]]).second;
+      for (size_t j = 0; j < near.size(); ++j) {
+        if (j == i || has_corner[j] || merged_into[j] != size_t(-1) || near[j].sc != near[i].sc) continue;
+        const double sj = double(near[j].pp.s);
+        if (sj >= s_lo && sj <= s_hi) continue;
+        if (straight_ok[j] == 2) {
+          float k = 0;
+          straight_ok[j] = straight(j, straight_g[j], k);
+        }
+        if (!straight_ok[j]) continue;
+        ga::Groove g = straight_g[j];
+        g.id = int(i);
+        g.n_dom = 0;
+        const auto [s0, s1] = path.spanAt(sj);
+        if (s0 > 0) g.dom[g.n_dom++] = {g.tdir * -1.0, g.t_lo - g.t0};
+        if (s1 < path.length()) g.dom[g.n_dom++] = {g.tdir, g.t0 - g.t_hi};
+        others[i].push_back(g);
+        others_of[i].push_back(j);
+      }
+    }
+    for (size_t i = 0; i < near.size(); ++i)
+      if (has_corner[i]) {
+        build(i, chain[i], others[i].empty() ? nullptr : &others[i]);
+        if (has_corner[i] && with_others)
+          for (size_t j : others_of[i]) joined[j] = 1;
+      }
+    // Where the joined chain could not be built (past chainParts' caps: cornerGroove fell back to
+    // one corner), a pass that it would have held takes its own corner groove again.
+    for (size_t j = 0; j < near.size(); ++j) {
+      const size_t i = merged_into[j];
+      if (i == size_t(-1)) continue;
+      const double sj = double(near[j].pp.s);
+      if (!has_corner[i] || sj < corner_span[i].first || sj > corner_span[i].second) build(j, own[j], nullptr);
+    }
     // A path that passes the footprint more than once (nearGrooves) has a groove for each pass.
-    // Where one pass enters as a corner (cornerGroove) its legs run to the next corners, so
+    // Where one pass enters as a corner its legs run to the next corners (or its chain's ends), so
     // another pass whose closest point lies on them is in it already; as a groove of its own it
     // would also run straight past the corner. Such a pass is left out, unless it enters as a
     // corner itself and comes first.
     thread_local std::vector<char> in_corner;
     in_corner.assign(near.size(), 0);
-    const Vec2d F(double(sp.uv.x), double(sp.uv.y));
-    const double corner_reach = double(along_uv * float(M_SQRT2));
     for (size_t i = 0; i < near.size(); ++i)
       for (size_t j = 0; j < near.size() && !in_corner[i]; ++j) {
-        if (j == i || near[j].sc != near[i].sc) continue;
-        const ScratchPath& path = near[i].sc->path();
-        const ScratchPath::Corner* cj = path.cornerAround(double(near[j].pp.s), F, corner_reach);
-        if (!cj) continue;
-        const auto [s0, s1] = path.legSpan(*cj);
+        if (j == i || near[j].sc != near[i].sc || !has_corner[j]) continue;
         const double si = double(near[i].pp.s);
-        in_corner[i] = si >= s0 && si <= s1 && (j < i || !path.cornerAround(si, F, corner_reach));
+        in_corner[i] = si >= corner_span[j].first && si <= corner_span[j].second && (j < i || !has_corner[i]);
       }
     for (size_t i = 0; i < near.size(); ++i) {
-      if (in_corner[i]) continue;
+      if (in_corner[i] || joined[i]) continue;
       NearGroove ng = near[i];
       ga::Groove g;
       // A corner within the region: its legs and cap (cornerGroove), whole. Else the groove along
       // its tangent at the closest point, in pieces where its scale is far from linear.
-      const bool corner = cornerGroove(sp, ng, int(i), float(corner_reach), gs, mm, profiles, corner_parts[i], g);
+      const bool corner = has_corner[i];
+      if (corner) g = corner_g[i];
       float k = 0;
-      if (!corner) {
-        k = ng.sc->scaleAt(ng.pp.s);
-        if (!(k > 0) && !(k = depthInward(sp, along_uv, ng))) continue;
-        profiles.push_back(surfaceProfile(ng, float(mm)));
-        if (!placeGroove(sp, gs, ng.pp.tangent, profiles.back(), *ng.sc, int(i), g)) continue;
-        Vec2f rel = sp.uv - ng.pp.point;
-        g.t0 = double(rel.x * ng.pp.tangent.x + rel.y * ng.pp.tangent.y) * mm;
-        g.b0 = double(ng.pp.offset) * mm;
-        g.rho = scaleSlope(ng, k, mm);  // per mm of surface
-        const double len = ng.sc->path().length();
-        g.t_lo = -double(ng.pp.s) * mm;
-        g.t_hi = (len - double(ng.pp.s)) * mm;
-      }
+      if (!corner && !straight(i, g, k)) continue;
       // How near the footprint's centre the cross-section comes (mm; <= 0 over it).
-      const auto& q = profiles.back().pts;
+      const auto& q = (corner ? profiles[corner_profile[i]] : profiles.back()).pts;
       grooves.push_back(g);
       near_mm.push_back(double(ng.pp.distance) * mm - std::max(std::fabs(q.front().x), std::fabs(q.back().x)));
       if (corner) {
@@ -1515,7 +1720,6 @@ class Tracer {
     // Whether a groove within the largest reach is in pieces (else the second round would build
     // the same surfaces again).
     bool split = false;
-    const double reach_max = std::max(double(view_reach), double(enlarge)) + 1e-3;
     for (size_t i = 0; i < grooves.size(); ++i)
       split = split || (near_mm[i] <= reach_max * std::sqrt(2.0) + fp_r && seg_at[i + 1] - seg_at[i] != 1);
     for (int whole = split ? 0 : 1; whole < 2; ++whole) {

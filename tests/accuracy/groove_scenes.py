@@ -258,6 +258,21 @@ LAYOUTS["hairpin"] = """
     hardness_hv: 30
 """
 
+# A path that turns three corners within a groove's width or two (seen at 2 degrees): along y =
+# -0.12 mm, back up-left to (0.05, 0.05), out to (0.2, 0.12) and back along y = 0.1 over the first
+# leg's pile-up. The polygons take the corners together (docs/grooves.md, "Corners close
+# together"): a leg no longer stops at the next corner inside the groove.
+LAYOUTS["knot"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5, 0.5]
+    path_mm: [-4, -0.12, 0.15, -0.12, 0.05, 0.05, 0.2, 0.12, -4, 0.1]
+    force_kg: 2
+    hardness_hv: 30
+"""
+
 LIGHTS = {
     # Bright field through a glass part: a 12 x 12 mm panel 50 mm below the plate, facing up, which
     # the flat glass shows whole; a groove's facets refract the view off it.

@@ -228,6 +228,22 @@ class GrooveAccuracy(unittest.TestCase):
         st = self.check("hairpin", "bar", fov_deg=3)
         self.assertLess(st["pct_ge_10"], 0.25)
 
+    def test_knot_ring(self):
+        """A path that turns three corners within a groove's width or two (groove_scenes.LAYOUTS
+        ["knot"], seen at 2 degrees) under the ring light. The polygons take the corners near a
+        footprint together and split the surface by nearness to their legs and round outer sides
+        (groove::area::chainParts; docs/grooves.md, "Corners close together"). Until 2026-11-29 a
+        footprint took one corner, whose legs stopped at the next corners inside the groove:
+        0.239% of pixels >= 10 (mean dE 0.259), now 0% (0.153). Bounded at 0.1%."""
+        st = self.check("knot", "ring", fov_deg=2)
+        self.assertLess(st["pct_ge_10"], 0.1)
+
+    def test_knot_bar(self):
+        """The same under the bar light: 0.814% of pixels >= 10 (mean dE 0.408), past the target,
+        before; now 0.098% (0.220). Bounded at 0.3%."""
+        st = self.check("knot", "bar", fov_deg=2)
+        self.assertLess(st["pct_ge_10"], 0.3)
+
     def test_dense_crossings_bar(self):
         """Six scratches crossed by six (groove_scenes.LAYOUTS["dense"]) under the bar light: at the
         full shadow reach a crossing's pieces pass their cap; the polygons are then built over

@@ -411,8 +411,7 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
   return true;
 }
 
-bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& bound, std::vector<Groove>& parts,
-                const std::vector<Groove>* others) {
+bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& bound, std::vector<Groove>& parts) {
   parts.clear();
   const size_t n = legs.size();
   if (n < 2 || !(max_sector > 0) || bound.empty()) return false;
@@ -449,12 +448,6 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
     appendFan(legs[k], legs[k + 1], v, unitOf(legs[k + 1].tdir), turn, max_sector, fan);
     for (const Groove& c : fan) cands.push_back({c, {c.bdir, c.b0}});
   }
-  if (others)
-    for (const Groove& o : *others) {
-      Groove g = o;
-      g.parts = nullptr;
-      cands.push_back({g, {g.bdir, g.b0}});
-    }
   // The partition of `bound`, one candidate at a time: each takes, within its own domain, the part
   // of every cell where its |b| is below the cell's owner's (or the cell has none yet). A cell
   // keeps the half-planes that cut it from `bound`; one that no longer bounds it is dropped (a

@@ -142,11 +142,7 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
 // by more than kMaxCornerTurn, or the partition needs more than kMaxChainCells cells or a cell
 // more than Groove::kMaxDom half-planes.
 constexpr size_t kMaxChainCells = 400;
-// `others`, where given: the same path's other passes near the footprint, each straight along its
-// run between corners, a candidate where its dom[0, n_dom) holds (the strip between those corners'
-// normals): a V whose vertex lies far away brings its other leg beside the corner's legs.
-bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& bound, std::vector<Groove>& out_parts,
-                const std::vector<Groove>* others = nullptr);
+bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& bound, std::vector<Groove>& out_parts);
 
 // The parts of a path that passes near the footprint twice (a hairpin's two legs, a loop that
 // crosses itself), `a` and `b` each straight along its pass, with the same id: the explicit

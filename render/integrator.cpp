@@ -1342,26 +1342,15 @@ class Tracer {
   static bool cornerGroove(const SurfacePoint& sp, const NearGroove& ng, int id, size_t at, size_t lo, size_t hi,
                            const groove::area::Poly& bound, const GrooveSet& gs, double mm, std::vector<Profile>& profiles,
                            std::vector<groove::area::Groove>& parts, groove::area::Groove& out,
-                           std::pair<double, double>& span, const std::vector<groove::area::Groove>* others,
-                           bool& with_others) {
+                           std::pair<double, double>& span) {
     const ScratchPath& path = ng.sc->path();
     const Vec2d F(double(sp.uv.x), double(sp.uv.y));
     const std::vector<ScratchPath::Corner>& cs = path.corners();
     const ScratchPath::Corner* c = &cs[at];
     const size_t profiles_at = profiles.size();
-    with_others = false;
-    // With the others, then (past chainParts' caps) without them; each attempt's profiles are
-    // dropped when it fails.
-    for (const std::vector<groove::area::Groove>* o : {others, static_cast<const std::vector<groove::area::Groove>*>(nullptr)}) {
-      if (o || lo < hi) {
-        if (chainGroove(sp, ng, id, lo, hi, bound, gs, mm, profiles, parts, out, o)) {
-          span = {path.legSpan(cs[lo]).first, path.legSpan(cs[hi]).second};
-          with_others = o != nullptr;
-          return true;
-        }
-        profiles.resize(profiles_at);
-      }
-      if (!others) break;  // (the one attempt without)
+    if (lo < hi && chainGroove(sp, ng, id, lo, hi, bound, gs, mm, profiles, parts, out)) {
+      span = {path.legSpan(cs[lo]).first, path.legSpan(cs[hi]).second};
+      return true;
     }
     profiles.resize(profiles_at);
     const float k = ng.sc->scaleAt(float(c->s));
@@ -1397,7 +1386,7 @@ class Tracer {
     return true;
   }
 
-  // The groove of ng's path along corners lo..hi (lo <= hi) of its path, all with the path's scale
+  // The groove of ng's path along corners lo..hi (lo < hi) of its path, all with the path's scale
   // > 0 (cornerGroove). Leg 0 ends at corner lo, each later leg starts at a corner; each takes the
   // cross-section at its corner (one profile per corner, appended to `profiles`). The interior legs'
   // scale runs linear from corner to corner, so that neighbouring legs and fans meet without a
@@ -1405,8 +1394,7 @@ class Tracer {
   // closest point lies on them, run linear to its scale there (as cornerGroove's own leg).
   static bool chainGroove(const SurfacePoint& sp, const NearGroove& ng, int id, size_t lo, size_t hi,
                           const groove::area::Poly& bound, const GrooveSet& gs, double mm, std::vector<Profile>& profiles,
-                          std::vector<groove::area::Groove>& parts, groove::area::Groove& out,
-                          const std::vector<groove::area::Groove>* others) {
+                          std::vector<groove::area::Groove>& parts, groove::area::Groove& out) {
     const ScratchPath& path = ng.sc->path();
     const std::vector<ScratchPath::Corner>& cs = path.corners();
     const Vec2d F(double(sp.uv.x), double(sp.uv.y));
@@ -1446,7 +1434,7 @@ class Tracer {
       }
       legs.push_back(g);
     }
-    if (!groove::area::chainParts(legs, kCornerSector, bound, parts, others)) return false;
+    if (!groove::area::chainParts(legs, kCornerSector, bound, parts)) return false;
     out = legs.front();
     out.parts = &parts;
     return true;
@@ -1489,8 +1477,8 @@ class Tracer {
     segs.clear();
     seg_at.assign(1, 0);
     // (The grooves point into `profiles`, which must not reallocate. Per pass at most: a chain's,
-    // one per corner (kMaxChain), again where a joined chain failed and it takes its own, its
-    // straight groove's, and kScaleSegments more for one cut into pieces along its path.)
+    // one per corner (kMaxChain), again where a joined chain failed and it takes its own, and its
+    // straight groove's, with kScaleSegments more for one cut into pieces along its path.)
     profiles.reserve(near.size() * (2 * kMaxChain + 2 + kScaleSegments));
     // Each corner's parts (cornerGroove), one list per groove; the grooves point into them.
     thread_local std::vector<std::vector<ga::Groove>> corner_parts;
@@ -1558,65 +1546,20 @@ class Tracer {
         has_corner[j] = 0;
         merged_into[j] = i;
       }
-    bool with_others = false;
-    auto build = [&](size_t i, const std::array<size_t, 3>& c, const std::vector<ga::Groove>* others) {
+    auto build = [&](size_t i, const std::array<size_t, 3>& c) {
       corner_profile[i] = profiles.size();
       has_corner[i] = cornerGroove(sp, near[i], int(i), c[0], c[1], c[2], bound, gs, mm, profiles, corner_parts[i],
-                                   corner_g[i], corner_span[i], others, with_others);
+                                   corner_g[i], corner_span[i]);
     };
-    // The same path's passes that are not corners and lie off a corner's chain (a V whose vertex
-    // lies far away: its other leg beside the corner's legs) join the corner's groove, straight,
-    // as candidates of its partition by nearness (ga::chainParts); as grooves of their own they
-    // were composited with it, a leg's pile-up standing over the other's groove. Each is a
-    // candidate over its straight run, between the normals at the corners that end it.
-    thread_local std::vector<std::vector<ga::Groove>> others;
-    thread_local std::vector<std::vector<size_t>> others_of;
-    thread_local std::vector<char> joined;
-    if (others.size() < near.size()) others.resize(near.size()), others_of.resize(near.size());
-    joined.assign(near.size(), 0);
-    thread_local std::vector<ga::Groove> straight_g;
-    thread_local std::vector<char> straight_ok;
-    straight_g.resize(near.size());
-    straight_ok.assign(near.size(), 2);  // 2: not built yet
-    for (size_t i = 0; i < near.size(); ++i) {
-      others[i].clear();
-      others_of[i].clear();
-      if (!has_corner[i]) continue;
-      const ScratchPath& path = near[i].sc->path();
-      const std::vector<ScratchPath::Corner>& cs = path.corners();
-      const double s_lo = path.legSpan(cs[chain[i][1]]).first, s_hi = path.legSpan(cs[chain[i][2]]).second;
-      for (size_t j = 0; j < near.size(); ++j) {
-        if (j == i || has_corner[j] || merged_into[j] != size_t(-1) || near[j].sc != near[i].sc) continue;
-        const double sj = double(near[j].pp.s);
-        if (sj >= s_lo && sj <= s_hi) continue;
-        if (straight_ok[j] == 2) {
-          float k = 0;
-          straight_ok[j] = straight(j, straight_g[j], k);
-        }
-        if (!straight_ok[j]) continue;
-        ga::Groove g = straight_g[j];
-        g.id = int(i);
-        g.n_dom = 0;
-        const auto [s0, s1] = path.spanAt(sj);
-        if (s0 > 0) g.dom[g.n_dom++] = {g.tdir * -1.0, g.t_lo - g.t0};
-        if (s1 < path.length()) g.dom[g.n_dom++] = {g.tdir, g.t0 - g.t_hi};
-        others[i].push_back(g);
-        others_of[i].push_back(j);
-      }
-    }
     for (size_t i = 0; i < near.size(); ++i)
-      if (has_corner[i]) {
-        build(i, chain[i], others[i].empty() ? nullptr : &others[i]);
-        if (has_corner[i] && with_others)
-          for (size_t j : others_of[i]) joined[j] = 1;
-      }
+      if (has_corner[i]) build(i, chain[i]);
     // Where the joined chain could not be built (past chainParts' caps: cornerGroove fell back to
     // one corner), a pass that it would have held takes its own corner groove again.
     for (size_t j = 0; j < near.size(); ++j) {
       const size_t i = merged_into[j];
       if (i == size_t(-1)) continue;
       const double sj = double(near[j].pp.s);
-      if (!has_corner[i] || sj < corner_span[i].first || sj > corner_span[i].second) build(j, own[j], nullptr);
+      if (!has_corner[i] || sj < corner_span[i].first || sj > corner_span[i].second) build(j, own[j]);
     }
     // A path that passes the footprint more than once (nearGrooves) has a groove for each pass.
     // Where one pass enters as a corner its legs run to the next corners (or its chain's ends), so
@@ -1632,7 +1575,7 @@ class Tracer {
         in_corner[i] = si >= corner_span[j].first && si <= corner_span[j].second && (j < i || !has_corner[i]);
       }
     for (size_t i = 0; i < near.size(); ++i) {
-      if (in_corner[i] || joined[i]) continue;
+      if (in_corner[i]) continue;
       NearGroove ng = near[i];
       ga::Groove g;
       // A corner within the region: its legs and cap (cornerGroove), whole. Else the groove along

@@ -584,58 +584,6 @@ TEST(GrooveArea, AChainOfCornersFollowsTheClosestPointOnThePath) {
     EXPECT_LT(worst, 2.5e-4) << c.name;
     EXPECT_GT(worst_one, 2e-3) << c.name;
   }
-  // A V whose vertex lies far outside the region, its way back turning a corner inside it: the
-  // first leg joins the corner's groove as a candidate over its straight run (`others`), and the
-  // surface is the closest point's again; composited with the corner as a groove of its own, a
-  // leg's pile-up stands over the other's groove.
-  {
-    const Vec2d v0(5, -0.03), c1(0.02, 0.04), start(-5, -0.07), end(-0.03, 5);
-    const ScratchPath path = ScratchPath::polyline({start, v0, c1, end});
-    auto line = [](Vec2d o, Vec2d t, double lo, double hi) {
-      Groove g = along(t, 0, 3);
-      g.t0 = -(t.x * o.x + t.y * o.y);
-      g.b0 = -(g.bdir.x * o.x + g.bdir.y * o.y);
-      g.t_lo = lo;
-      g.t_hi = hi;
-      return g;
-    };
-    auto unit = [](Vec2d d) { return d * (1 / std::hypot(d.x, d.y)); };
-    const double l1 = std::hypot(c1.x - v0.x, c1.y - v0.y), l2 = std::hypot(end.x - c1.x, end.y - c1.y);
-    const double l0 = std::hypot(v0.x - start.x, v0.y - start.y);
-    // The corner at c1: the leg from v0 (t = 0 at c1, its end) and the leg on.
-    const std::vector<Groove> corner_legs = {line(c1, unit(c1 - v0), -l1, 0), line(c1, unit(end - c1), 0, l2)};
-    // The first leg, t = 0 at v0 (its end, a corner: a candidate up to the normal there).
-    Groove first = line(v0, unit(v0 - start), -l0, 0);
-    first.dom[0] = {first.tdir, first.t0};
-    first.n_dom = 1;
-    const std::vector<Groove> others = {first};
-    std::vector<Groove> parts;
-    ASSERT_TRUE(chainParts(corner_legs, 15 * M_PI / 180, region, parts, &others));
-    Groove g;
-    g.parts = &parts;
-    std::vector<Groove> corner_parts;
-    ASSERT_TRUE(cornerParts(corner_legs[0], corner_legs[1], 15 * M_PI / 180, corner_parts));
-    Groove gc;
-    gc.parts = &corner_parts;
-    Surface s, comp;
-    ASSERT_TRUE(s.build(region, {g}));
-    ASSERT_TRUE(comp.build(region, {gc, first}));
-    double worst = 0, worst_comp = 0;
-    for (int j = 0; j <= 80; ++j)
-      for (int i = 0; i <= 80; ++i) {
-        const Vec2d p(-0.15 + 0.3 * (i + 0.31) / 81, -0.15 + 0.3 * (j + 0.57) / 81);
-        const double want = profileAt(double(path.closest(Vec2f(float(p.x), float(p.y))).offset));
-        const int k = pieceAt(s, p), kc = pieceAt(comp, p);
-        ASSERT_GE(k, 0);
-        ASSERT_GE(kc, 0);
-        worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
-        worst_comp = std::max(worst_comp, std::fabs(comp.pieces()[size_t(kc)].plane.at(p) - want));
-      }
-    std::printf("[          ] V, vertex far away: %zu parts, height off by at most %.2e mm (composited %.2e)\n",
-                parts.size(), worst, worst_comp);
-    EXPECT_LT(worst, 2.5e-4);
-    EXPECT_GT(worst_comp, 2e-3);
-  }
   // Doubling back past kMaxCornerTurn at a corner: refused.
   std::vector<Groove> parts;
   auto [c, d] = legs({0, 0}, dirOf(10), dirOf(188));

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <vector>
 
@@ -128,6 +129,25 @@ double profileAt(double b) {
   for (size_t j = 0; j + 1 < P.size(); ++j)
     if (b >= P[j].x && b <= P[j + 1].x) return P[j].y + (P[j + 1].y - P[j].y) * (b - P[j].x) / (P[j + 1].x - P[j].x);
   return 0.0;
+}
+
+// The largest difference over an 81 x 81 grid of [-0.15, 0.15]^2 between s's height and kProfile at
+// the signed distance to the closest point of `path` (Scratch::height's rule); infinite, with a
+// failure, where a grid point is on no piece.
+double offClosestProfile(const Surface& s, const ScratchPath& path) {
+  double worst = 0;
+  for (int j = 0; j <= 80; ++j)
+    for (int i = 0; i <= 80; ++i) {
+      const Vec2d p(-0.15 + 0.3 * (i + 0.31) / 81, -0.15 + 0.3 * (j + 0.57) / 81);
+      const double want = profileAt(double(path.closest(Vec2f(float(p.x), float(p.y))).offset));
+      const int k = pieceAt(s, p);
+      if (k < 0) {
+        ADD_FAILURE() << "no piece at " << p.x << ", " << p.y;
+        return std::numeric_limits<double>::infinity();
+      }
+      worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
+    }
+  return worst;
 }
 
 Groove along(Vec2d t, double b0, int id) {
@@ -473,20 +493,10 @@ TEST(GrooveArea, ACornersPiecesFollowTheClosestPointOnThePath) {
     ASSERT_TRUE(straight.build(rect(-0.2, -0.2, 0.2, 0.2), {on}));
     EXPECT_TRUE(s.walls().empty());
     const ScratchPath path = ScratchPath::polyline({v - ta, v, v + tb});
-    double worst = 0, worst_straight = 0, area = 0;
+    double area = 0;
     for (const Piece& pc : s.pieces()) area += pc.wall ? 0.0 : pc.poly.area();
     EXPECT_NEAR(area, 0.16, 1e-9);
-    for (int j = 0; j <= 80; ++j)
-      for (int i = 0; i <= 80; ++i) {
-        const Vec2d p(-0.15 + 0.3 * (i + 0.31) / 81, -0.15 + 0.3 * (j + 0.57) / 81);
-        const PathPoint pp = path.closest(Vec2f(float(p.x), float(p.y)));
-        const double want = profileAt(double(pp.offset));
-        const int k = pieceAt(s, p), ks = pieceAt(straight, p);
-        ASSERT_GE(k, 0);
-        ASSERT_GE(ks, 0);
-        worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
-        worst_straight = std::max(worst_straight, std::fabs(straight.pieces()[size_t(ks)].plane.at(p) - want));
-      }
+    const double worst = offClosestProfile(s, path), worst_straight = offClosestProfile(straight, path);
     std::printf("[          ] turn %4.0f: %zu parts, height off by at most %.2e mm (one straight groove %.2e)\n", turn,
                 parts.size(), worst, worst_straight);
     EXPECT_LT(worst, 2.5e-4) << "turn " << turn;
@@ -568,17 +578,7 @@ TEST(GrooveArea, AChainOfCornersFollowsTheClosestPointOnThePath) {
     one.parts = &one_parts;
     Surface s1;
     ASSERT_TRUE(s1.build(region, {one}));
-    double worst = 0, worst_one = 0;
-    for (int j = 0; j <= 80; ++j)
-      for (int i = 0; i <= 80; ++i) {
-        const Vec2d p(-0.15 + 0.3 * (i + 0.31) / 81, -0.15 + 0.3 * (j + 0.57) / 81);
-        const double want = profileAt(double(path.closest(Vec2f(float(p.x), float(p.y))).offset));
-        const int k = pieceAt(s, p), k1 = pieceAt(s1, p);
-        ASSERT_GE(k, 0);
-        ASSERT_GE(k1, 0);
-        worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
-        worst_one = std::max(worst_one, std::fabs(s1.pieces()[size_t(k1)].plane.at(p) - want));
-      }
+    const double worst = offClosestProfile(s, path), worst_one = offClosestProfile(s1, path);
     std::printf("[          ] %s: %zu parts, height off by at most %.2e mm (one corner %.2e)\n", c.name, parts.size(),
                 worst, worst_one);
     EXPECT_LT(worst, 2.5e-4) << c.name;
@@ -634,17 +634,7 @@ TEST(GrooveArea, APathsTwoPassesEachHoldWhereTheyAreTheNearer) {
     // The path: out along pass a, round far outside the region, back along pass b.
     const Vec2d a0 = c.pa - c.ta * 20, a1 = c.pa + c.ta * 20, b0 = c.pb - c.tb * 20, b1 = c.pb + c.tb * 20;
     const ScratchPath path = ScratchPath::polyline({a0, a1, b0, b1});
-    double worst = 0, worst_composite = 0;
-    for (int j = 0; j <= 80; ++j)
-      for (int i = 0; i <= 80; ++i) {
-        const Vec2d p(-0.15 + 0.3 * (i + 0.31) / 81, -0.15 + 0.3 * (j + 0.57) / 81);
-        const double want = profileAt(double(path.closest(Vec2f(float(p.x), float(p.y))).offset));
-        const int k = pieceAt(s, p), kc = pieceAt(composite, p);
-        ASSERT_GE(k, 0);
-        ASSERT_GE(kc, 0);
-        worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
-        worst_composite = std::max(worst_composite, std::fabs(composite.pieces()[size_t(kc)].plane.at(p) - want));
-      }
+    const double worst = offClosestProfile(s, path), worst_composite = offClosestProfile(composite, path);
     std::printf("[          ] %s: height off by at most %.2e mm (composite %.2e)\n", c.name, worst, worst_composite);
     EXPECT_LT(worst, 1e-5) << c.name;
     EXPECT_GT(worst_composite, 1e-3) << c.name;

@@ -1487,10 +1487,10 @@ class Tracer {
     // reach the region below (uv units).
     const double fp_r = std::max(std::hypot(lo.x, lo.y), std::hypot(hi.x, hi.y));
     const float along_uv = float((fp_r + std::max(double(view_reach), double(enlarge)) + 1e-3) / mm);
-    // A pass as a straight groove along its tangent at the closest point (k: its scale there, or
-    // inward of a faded tip), its profile appended to `profiles`; false where it has none.
-    auto straight = [&](size_t i, ga::Groove& g, float& k) {
-      NearGroove ng = near[i];
+    // Pass i (ng, moved inward of a faded tip by depthInward) as a straight groove along its
+    // tangent at the closest point (k: its scale there), its profile appended to `profiles`; false
+    // where it has none.
+    auto straight = [&](size_t i, NearGroove& ng, ga::Groove& g, float& k) {
       k = ng.sc->scaleAt(ng.pp.s);
       if (!(k > 0) && !(k = depthInward(sp, along_uv, ng))) return false;
       profiles.push_back(surfaceProfile(ng, float(mm)));
@@ -1583,7 +1583,7 @@ class Tracer {
       const bool corner = has_corner[i];
       if (corner) g = corner_g[i];
       float k = 0;
-      if (!corner && !straight(i, g, k)) continue;
+      if (!corner && !straight(i, ng, g, k)) continue;
       // How near the footprint's centre the cross-section comes (mm; <= 0 over it).
       const auto& q = (corner ? profiles[corner_profile[i]] : profiles.back()).pts;
       grooves.push_back(g);

@@ -373,6 +373,12 @@ void appendFan(const Groove& in, const Groove& like, Vec2d v, Vec2d tb, double t
   }
 }
 
+// The other side of h: -h.a . p - h.c <= 0.
+HalfPlane flip(const HalfPlane& h) { return HalfPlane{h.a * -1.0, -h.c}; }
+
+// Whether h is zero everywhere (the difference or sum of two identical offsets).
+bool zero(const HalfPlane& h) { return std::hypot(h.a.x, h.a.y) <= 1e-12 && std::fabs(h.c) <= 1e-12; }
+
 // The point of g at (t, b) = (t, 0).
 bool pointAt(const Groove& g, double t, Vec2d& v) {
   const double det = g.tdir.x * g.bdir.y - g.tdir.y * g.bdir.x;
@@ -389,9 +395,8 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
   const double turn = turnOf(in.tdir, out.tdir);
   if (!(std::fabs(turn) >= 1e-6) || !(std::fabs(turn) <= kMaxCornerTurn) || !(max_sector > 0)) return false;
   // The vertex: t = 0 and b = 0 on the leg before it.
-  const double det = in.tdir.x * in.bdir.y - in.tdir.y * in.bdir.x;
-  if (!(std::fabs(det) > 1e-12)) return false;
-  const Vec2d v((-in.t0 * in.bdir.y + in.b0 * in.tdir.y) / det, (-in.b0 * in.tdir.x + in.t0 * in.bdir.x) / det);
+  Vec2d v;
+  if (!pointAt(in, 0, v)) return false;
   // The legs: each on its side of the bisector, t_in + t_out <= 0 before the corner (the two
   // t's measured from the vertex along each leg; on the bisector they are opposite).
   const HalfPlane before{in.tdir + out.tdir, in.t0 + out.t0};
@@ -400,7 +405,7 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
   a.t_hi = 0;
   b.t_lo = 0;
   a.dom[0] = before;
-  b.dom[0] = {before.a * -1.0, -before.c};
+  b.dom[0] = flip(before);
   // (and each before or after the vertex along itself: past the end line the cap holds)
   a.dom[1] = {in.tdir, in.t0};
   b.dom[1] = {out.tdir * -1.0, -out.t0};
@@ -451,7 +456,7 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
   // The partition of `bound`, one candidate at a time: each takes, within its own domain, the part
   // of every cell where its |b| is below the cell's owner's (or the cell has none yet). A cell
   // keeps the half-planes that cut it from `bound`; one that no longer bounds it is dropped (a
-  // convex cell strictly inside a half-plane stays so as it shrinks).
+  // convex cell that touches a line along no edge keeps off it as it shrinks).
   struct Cell {
     Poly poly;
     HalfPlane h[2 * Groove::kMaxDom + 1];
@@ -474,8 +479,12 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
       for (int j = 0; j < c.poly.n && on < 2; ++j) {
         const Vec2d& q = c.poly.v[size_t(j)];
         if (!(h.a.x * q.x + h.a.y * q.y + h.c > -tol)) continue;
-        if (on == 0 || std::fabs(q.x - first.x) + std::fabs(q.y - first.y) > 1e-9) ++on;
-        first = on == 1 ? q : first;
+        if (on == 0) {
+          first = q;
+          on = 1;
+        } else if (std::fabs(q.x - first.x) + std::fabs(q.y - first.y) > 1e-9) {
+          on = 2;
+        }
       }
       if (on >= 2) c.h[m++] = h;
     }
@@ -521,8 +530,6 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
     }
     return above == c.poly.n || below == c.poly.n;
   };
-  auto flip = [](const HalfPlane& h) { return HalfPlane{h.a * -1.0, -h.c}; };
-  auto zero = [](const HalfPlane& h) { return std::hypot(h.a.x, h.a.y) <= 1e-12 && std::fabs(h.c) <= 1e-12; };
   for (size_t ci = 0; ci < cands.size() && !overflow; ++ci) {
     const Candidate& cd = cands[ci];
     next.clear();
@@ -597,9 +604,8 @@ bool passParts(const Groove& a, const Groove& b, std::vector<Groove>& parts) {
   const HalfPlane u{a.bdir - b.bdir, a.b0 - b.b0}, v{a.bdir + b.bdir, a.b0 + b.b0};
   // One of them zero everywhere: the passes lie on one line (a path going back over itself), and
   // the four wedges would not tile the plane.
-  auto zero = [](const HalfPlane& h) { return std::hypot(h.a.x, h.a.y) <= 1e-12 && std::fabs(h.c) <= 1e-12; };
   if (zero(u) || zero(v)) return false;
-  const HalfPlane nu{u.a * -1.0, -u.c}, nv{v.a * -1.0, -v.c};
+  const HalfPlane nu = flip(u), nv = flip(v);
   auto part = [&](const Groove& g, HalfPlane h1, HalfPlane h2) {
     Groove q = g;
     q.parts = nullptr;

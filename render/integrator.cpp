@@ -1477,7 +1477,7 @@ class Tracer {
     segs.clear();
     seg_at.assign(1, 0);
     // (The grooves point into `profiles`, which must not reallocate. Per pass at most: a chain's,
-    // one per corner (kMaxChain), again where a joined chain failed and it takes its own, and its
+    // one per corner (kMaxChain), again where a joined chain failed and it takes its own; else its
     // straight groove's, with kScaleSegments more for one cut into pieces along its path.)
     profiles.reserve(near.size() * (2 * kMaxChain + 2 + kScaleSegments));
     // Each corner's parts (cornerGroove), one list per groove; the grooves point into them.
@@ -1487,26 +1487,6 @@ class Tracer {
     // reach the region below (uv units).
     const double fp_r = std::max(std::hypot(lo.x, lo.y), std::hypot(hi.x, hi.y));
     const float along_uv = float((fp_r + std::max(double(view_reach), double(enlarge)) + 1e-3) / mm);
-    // Pass i (ng, moved inward of a faded tip by depthInward) as a straight groove along its
-    // tangent at the closest point (k: its scale there), its profile appended to `profiles`; false
-    // where it has none.
-    auto straight = [&](size_t i, NearGroove& ng, ga::Groove& g, float& k) {
-      k = ng.sc->scaleAt(ng.pp.s);
-      if (!(k > 0) && !(k = depthInward(sp, along_uv, ng))) return false;
-      profiles.push_back(surfaceProfile(ng, float(mm)));
-      if (!placeGroove(sp, gs, ng.pp.tangent, profiles.back(), *ng.sc, int(i), g)) return false;
-      Vec2f rel = sp.uv - ng.pp.point;
-      g.t0 = double(rel.x * ng.pp.tangent.x + rel.y * ng.pp.tangent.y) * mm;
-      g.b0 = double(ng.pp.offset) * mm;
-      g.rho = scaleSlope(ng, k, mm);  // per mm of surface
-      // Along its tangent up to the corners around it, or the path's ends: past a corner the path
-      // turns, and a straight groove run on would stand where it is not (a pass found on a short
-      // leg of a knot of corners; docs/grooves.md, "Corners close together").
-      const auto [s0, s1] = ng.sc->path().spanAt(double(ng.pp.s));
-      g.t_lo = (s0 - double(ng.pp.s)) * mm;
-      g.t_hi = (s1 - double(ng.pp.s)) * mm;
-      return true;
-    };
     // Each pass's corner groove (cornerGroove), built first over the largest region tried below.
     const Vec2d F(double(sp.uv.x), double(sp.uv.y));
     const double corner_reach = double(along_uv * float(M_SQRT2));
@@ -1583,7 +1563,22 @@ class Tracer {
       const bool corner = has_corner[i];
       if (corner) g = corner_g[i];
       float k = 0;
-      if (!corner && !straight(i, ng, g, k)) continue;
+      if (!corner) {
+        k = ng.sc->scaleAt(ng.pp.s);
+        if (!(k > 0) && !(k = depthInward(sp, along_uv, ng))) continue;
+        profiles.push_back(surfaceProfile(ng, float(mm)));
+        if (!placeGroove(sp, gs, ng.pp.tangent, profiles.back(), *ng.sc, int(i), g)) continue;
+        Vec2f rel = sp.uv - ng.pp.point;
+        g.t0 = double(rel.x * ng.pp.tangent.x + rel.y * ng.pp.tangent.y) * mm;
+        g.b0 = double(ng.pp.offset) * mm;
+        g.rho = scaleSlope(ng, k, mm);  // per mm of surface
+        // Along its tangent up to the corners around it, or the path's ends: past a corner the
+        // path turns, and a straight groove run on would stand where it is not (a pass found on a
+        // short leg of a knot of corners; docs/grooves.md, "Corners close together").
+        const auto [s0, s1] = ng.sc->path().spanAt(double(ng.pp.s));
+        g.t_lo = (s0 - double(ng.pp.s)) * mm;
+        g.t_hi = (s1 - double(ng.pp.s)) * mm;
+      }
       // How near the footprint's centre the cross-section comes (mm; <= 0 over it).
       const auto& q = (corner ? profiles[corner_profile[i]] : profiles.back()).pts;
       grooves.push_back(g);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 namespace dg::groove::area {
@@ -416,7 +417,8 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
   return true;
 }
 
-bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& bound, std::vector<Groove>& parts) {
+bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& bound, std::vector<Groove>& parts,
+                const std::vector<size_t>& run_starts) {
   parts.clear();
   const size_t n = legs.size();
   if (n < 2 || !(max_sector > 0) || bound.empty()) return false;
@@ -429,20 +431,25 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
   thread_local std::vector<Candidate> cands;
   thread_local std::vector<Groove> fan;
   cands.clear();
+  auto starts = [&](size_t k) {
+    return k == 0 || k == n || std::find(run_starts.begin(), run_starts.end(), k) != run_starts.end();
+  };
   for (size_t k = 0; k < n; ++k) {
     Groove g = legs[k];
     g.parts = nullptr;
     g.n_dom = 0;
-    // Within its corners' normals (the first leg only before corner 0, the last only after its
-    // start); the interior legs' own ends are those normals, so their t range is left open.
-    if (k > 0) g.dom[g.n_dom++] = {g.tdir * -1.0, g.t_lo - g.t0};
-    if (k + 1 < n) g.dom[g.n_dom++] = {g.tdir, g.t0 - g.t_hi};
-    if (k > 0 && k + 1 < n) {
+    // Within its corners' normals (a run's first leg only before its first corner, its last only
+    // after its start, a run of one leg everywhere); the interior legs' own ends are those
+    // normals, so their t range is left open.
+    const bool first = starts(k), last = starts(k + 1);
+    if (!first) g.dom[g.n_dom++] = {g.tdir * -1.0, g.t_lo - g.t0};
+    if (!last) g.dom[g.n_dom++] = {g.tdir, g.t0 - g.t_hi};
+    if (!first && !last) {
       g.t_lo = -1e30;
       g.t_hi = 1e30;
     }
     cands.push_back({g, {g.bdir, g.b0}});
-    if (k + 1 == n) break;
+    if (last) continue;
     // Corner k, at the start of leg k + 1.
     const double turn = turnOf(legs[k].tdir, legs[k + 1].tdir);
     if (!(std::fabs(turn) <= kMaxCornerTurn)) return false;
@@ -583,6 +590,21 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
     overflow = overflow || cells.size() > kMaxChainCells;
   }
   if (overflow) return false;
+  // A sliver that no candidate took: the end line of a leg and the edge of the fan at its corner,
+  // each computed in its own leg's frame, can miss the vertex by rounding (about 1e-8 of the
+  // footprint's distance from it; bends seen from far, by a long light reach), leaving a strip of
+  // that width out to `bound`. It goes to the candidate with the least |b| at its centre.
+  const double sliver = 1e-7 * bound.area();
+  for (Cell& c : cells) {
+    if (c.owner >= 0 || !(c.poly.area() < sliver)) continue;
+    Vec2d m(0, 0);
+    for (int j = 0; j < c.poly.n; ++j) m = m + c.poly.v[size_t(j)] * (1.0 / c.poly.n);
+    double best = std::numeric_limits<double>::infinity();
+    for (size_t ci = 0; ci < cands.size(); ++ci) {
+      const double b = std::fabs(cands[ci].b.a.x * m.x + cands[ci].b.a.y * m.y + cands[ci].b.c);
+      if (b < best) best = b, c.owner = int(ci);
+    }
+  }
   for (const Cell& c : cells) {
     // (Every point has a nearest candidate: the path's closest point is on a leg's strip or, on
     // a corner's outer side, in its fan.)

@@ -100,7 +100,7 @@ struct Groove {
   // half-planes hold, their domains tiling the plane (chainParts: the region it was given). Such a
   // groove counts as one (one plane per cell, one id); its own fields other than `parts` and `id`
   // are not used. A part's own `parts` is null.
-  static constexpr int kMaxDom = 6;
+  static constexpr int kMaxDom = 10;
   const std::vector<Groove>* parts = nullptr;
   HalfPlane dom[kMaxDom];
   int n_dom = 0;
@@ -142,7 +142,14 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
 // by more than kMaxCornerTurn, or the partition needs more than kMaxChainCells cells or a cell
 // more than Groove::kMaxDom half-planes.
 constexpr size_t kMaxChainCells = 400;
-bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& bound, std::vector<Groove>& out_parts);
+//
+// run_starts: the legs (in increasing order) where another pass of the path starts, with no
+// corner between it and the leg before it (a loop whose passes near the footprint are apart along
+// the path, each with its bends): each run's first and last legs are unbounded beyond their far
+// ends, a run of one leg everywhere, and all runs' candidates share the partition, as passParts
+// does for two straight passes.
+bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& bound, std::vector<Groove>& out_parts,
+                const std::vector<size_t>& run_starts = {});
 
 // The parts of a path that passes near the footprint twice (a hairpin's two legs, a loop that
 // crosses itself), `a` and `b` each straight along its pass, with the same id: the explicit

@@ -4,6 +4,7 @@
 #include "defects/scratch.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -36,6 +37,30 @@ void flattenCubic(Vec2d p0, Vec2d p1, Vec2d p2, Vec2d p3, double tol, int depth,
   Vec2d d = (a + b) * 0.5, e = (b + c) * 0.5, m = (d + e) * 0.5;
   flattenCubic(p0, a, d, m, tol, depth + 1, out);
   flattenCubic(m, e, c, p3, tol, depth + 1, out);
+}
+
+// Douglas-Peucker on an open polyline, keeping both ends: a vertex is kept where it lies farther
+// than allowed(i) from the chord of the run that holds it.
+template <class Allowed>
+void simplifyBy(const std::vector<Vec2d>& in, size_t i0, size_t i1, const Allowed& allowed, std::vector<char>& keep) {
+  if (i1 <= i0 + 1) return;
+  double worst = -1;
+  size_t wi = i0;
+  for (size_t i = i0 + 1; i < i1; ++i) {
+    double d = segDist(in[i], in[i0], in[i1]) - allowed(i);
+    if (d > worst) {
+      worst = d;
+      wi = i;
+    }
+  }
+  if (worst > 0) {
+    keep[wi] = 1;
+    simplifyBy(in, i0, wi, allowed, keep);
+    simplifyBy(in, wi, i1, allowed, keep);
+  }
+}
+void simplify(const std::vector<Vec2d>& in, size_t i0, size_t i1, double tol, std::vector<char>& keep) {
+  simplifyBy(in, i0, i1, [tol](size_t) { return tol; }, keep);
 }
 
 // Area between a polyline piece and w = 0 where w has the sign `sgn` (+1 above, -1 below).
@@ -108,6 +133,47 @@ std::pair<double, double> ScratchPath::spanAt(double s) const {
   const Corner *b = corners_.data(), *e = b + corners_.size();
   const Corner* after = std::upper_bound(b, e, s, [](double v, const Corner& c) { return v < c.s; });
   return {after == b ? 0.0 : (after - 1)->s, after == e ? length() : after->s};
+}
+
+bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, double growth, double min_stray,
+                              size_t max_bends, std::vector<Corner>& out, std::pair<double, double>& span) const {
+  out.clear();
+  // The window: from s's segment out to the first vertex on each side beyond `reach`.
+  const size_t last = pts_.size() - 1;
+  const ptrdiff_t after = std::upper_bound(arc_.begin(), arc_.end(), s) - arc_.begin();
+  const size_t seg = std::min(last - 1, size_t(std::max<ptrdiff_t>(0, after - 1)));
+  size_t a = seg, b = seg + 1;
+  while (a > 0 && len2(pts_[a] - p) <= reach) --a;
+  while (b < last && len2(pts_[b] - p) <= reach) ++b;
+  if (b <= a + 1) return false;
+  // Straight enough: every vertex within min_stray of the tangent at s.
+  const Vec2d q = pointAt(s), t = tangentAt(s);
+  bool strays = false;
+  for (size_t i = a; i <= b && !strays; ++i) strays = std::fabs(cross(t, pts_[i] - q)) > min_stray;
+  if (!strays) return false;
+  thread_local std::vector<char> keep;
+  double dp_tol = tol;
+  for (int round = 0; round <= 16; ++round, dp_tol *= 2) {
+    keep.assign(pts_.size(), 0);
+    simplifyBy(pts_, a, b, [&](size_t i) { return dp_tol + growth * len2(pts_[i] - p); }, keep);
+    size_t kept = 0;
+    for (size_t i = a + 1; i < b; ++i) kept += keep[i] != 0;
+    if (kept == 0) return false;
+    if (kept > max_bends) continue;
+    size_t prev = a;
+    for (size_t i = a + 1; i < b; ++i) {
+      if (!keep[i]) continue;
+      size_t next = i + 1;
+      while (next < b && !keep[next]) ++next;
+      const Vec2d da = pts_[i] - pts_[prev], db = pts_[next] - pts_[i];
+      const Vec2d ta = da * (1.0 / len2(da)), tb = db * (1.0 / len2(db));
+      out.push_back({i, arc_[i], pts_[i], ta, tb, std::atan2(cross(ta, tb), dot(ta, tb))});
+      prev = i;
+    }
+    span = {arc_[a], arc_[b]};
+    return true;
+  }
+  return false;
 }
 
 ScratchPath ScratchPath::sub(double s0, double s1) const {
@@ -583,25 +649,6 @@ namespace {
 struct P3 {
   double x, y, z;  // (b, t, w) in the scratch frame
 };
-
-// Douglas-Peucker on an open polyline, keeping both ends.
-void simplify(const std::vector<Vec2d>& in, size_t i0, size_t i1, double tol, std::vector<char>& keep) {
-  if (i1 <= i0 + 1) return;
-  double worst = -1;
-  size_t wi = i0;
-  for (size_t i = i0 + 1; i < i1; ++i) {
-    double d = segDist(in[i], in[i0], in[i1]);
-    if (d > worst) {
-      worst = d;
-      wi = i;
-    }
-  }
-  if (worst > tol) {
-    keep[wi] = 1;
-    simplify(in, i0, wi, tol, keep);
-    simplify(in, wi, i1, tol, keep);
-  }
-}
 
 double edgeHalfAngle(const ToolSpec& t) {
   const double g = 0.5 * t.apex_angle_rad;

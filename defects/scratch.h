@@ -113,6 +113,19 @@ class ScratchPath {
   // after it), or the path's ends: the straight run of the path that holds s.
   std::pair<double, double> spanAt(double s) const;
 
+  // Bends: where a curve turns tightly near a point (a small loop or U-turn of a cubic, flattened
+  // into many vertices, some past kCornerTurn and most below it), neither its tangent at the
+  // closest point nor the straight legs between its corners stand for it. The window of arc
+  // position s runs from s's segment out to the first vertex on each side farther than `reach`
+  // from p. Simplified (Douglas-Peucker) so that each dropped vertex lies within tol + growth * (its
+  // distance from p) of the kept polyline, its kept interior vertices are the bends, as corners
+  // (vertex, s, p, the simplified legs' directions and the turn between them; a polyline's corners
+  // are kept as such where their legs are straight), and `span` the window's arc range. Where that
+  // keeps more than max_bends, tol is doubled, up to 16 times. False (out cleared) where no vertex
+  // is kept, or past that.
+  bool bendsAround(double s, Vec2d p, double reach, double tol, double growth, double min_stray, size_t max_bends,
+                   std::vector<Corner>& out, std::pair<double, double>& span) const;
+
  private:
   void finish();  // arc lengths, box, float copy, segment grid
   void closestOnSegment(size_t i, Vec2f p, float& best_d2, size_t& best_i, float& best_t) const;

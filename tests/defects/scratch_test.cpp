@@ -587,6 +587,72 @@ TEST(ScratchPath, ABranchAlsoEndsWhereThePathGoesAwayAndComesBack) {
   EXPECT_GE(more, 10);
 }
 
+// Bends (ScratchPath::bendsAround) of an arc 0.3 mm in radius (flattened into 20 chords, each
+// turn below a corner's): they keep the path within tol + growth * (distance from p) of their
+// polyline, their window starts and ends beyond the reach, and they turn by the polyline's angle in
+// all. With growth, fewer bends far from p. A straight line has none, and a polyline's corner is its
+// one bend.
+TEST(ScratchPath, BendsFollowACurveWithinTheTolerance) {
+  const double r = 0.3;
+  const ScratchPath arc = ScratchPath::arc({0, 0}, r, 0, M_PI);
+  ASSERT_TRUE(arc.corners().empty());
+  const Vec2d p(0, 0.35);
+  const double s = double(arc.closest(Vec2f(0.0f, 0.35f)).s);
+  std::vector<ScratchPath::Corner> bends;
+  std::pair<double, double> span;
+  for (const double growth : {0.0, 0.05}) {
+    const double tol = 1e-3;
+    ASSERT_TRUE(arc.bendsAround(s, p, 0.2, tol, growth, 0.0, 16, bends, span)) << growth;
+    ASSERT_GE(bends.size(), 2u);
+    EXPECT_LE(bends.size(), 16u);
+    // The window: around s, beyond the reach at both ends.
+    EXPECT_LT(span.first, s);
+    EXPECT_GT(span.second, s);
+    EXPECT_GT(std::hypot(arc.pointAt(span.first).x - p.x, arc.pointAt(span.first).y - p.y), 0.2);
+    EXPECT_GT(std::hypot(arc.pointAt(span.second).x - p.x, arc.pointAt(span.second).y - p.y), 0.2);
+    std::vector<Vec2d> poly{arc.pointAt(span.first)};
+    double turn = 0;
+    for (size_t k = 0; k < bends.size(); ++k) {
+      poly.push_back(bends[k].p);
+      turn += bends[k].turn;
+      if (k > 0) EXPECT_GT(bends[k].s, bends[k - 1].s);
+      EXPECT_LT(std::hypot(bends[k].p.x - arc.pointAt(bends[k].s).x, bends[k].p.y - arc.pointAt(bends[k].s).y), 1e-12);
+    }
+    poly.push_back(arc.pointAt(span.second));
+    // Every point of the flattened arc in the window within the allowance of the bends' polyline.
+    for (int k = 0; k <= 400; ++k) {
+      const Vec2d q = arc.pointAt(span.first + (span.second - span.first) * k / 400);
+      double best = 1e30;
+      for (size_t j = 0; j + 1 < poly.size(); ++j) {
+        const Vec2d a = poly[j], d = poly[j + 1] - a;
+        const double t = std::clamp(((q.x - a.x) * d.x + (q.y - a.y) * d.y) / (d.x * d.x + d.y * d.y), 0.0, 1.0);
+        best = std::min(best, std::hypot(q.x - a.x - d.x * t, q.y - a.y - d.y * t));
+      }
+      EXPECT_LE(best, tol + growth * std::hypot(q.x - p.x, q.y - p.y) + 1e-12) << growth << ", " << k;
+    }
+    // The turns add up to the turn from the window's first leg to its last: to the left.
+    const Vec2d t0 = bends.front().t_in, t1 = bends.back().t_out;
+    EXPECT_NEAR(turn, std::atan2(t0.x * t1.y - t0.y * t1.x, t0.x * t1.x + t0.y * t1.y), 1e-9);
+    EXPECT_GT(turn, 0);
+    std::printf("[          ] growth %.2f: %zu bends\n", growth, bends.size());
+    EXPECT_EQ(bends.size(), growth > 0 ? 3u : 7u);
+  }
+  // At most 3 bends: the tolerance doubles until they fit.
+  ASSERT_TRUE(arc.bendsAround(s, p, 0.2, 1e-3, 0.0, 0.0, 3, bends, span));
+  EXPECT_LE(bends.size(), 3u);
+  // A straight line (its middle vertex on the line) has none, and a polyline's corner is its bend.
+  const ScratchPath line = ScratchPath::polyline({{-1, 0}, {-0.5, 0.0}, {1, 0}});
+  EXPECT_FALSE(line.bendsAround(0.9, {-0.1, 0.05}, 0.5, 1e-6, 0.0, 0.0, 12, bends, span));
+  EXPECT_TRUE(bends.empty());
+  const ScratchPath corner = ScratchPath::polyline({{-1, 0}, {0, 0}, {0, 1}});
+  ASSERT_TRUE(corner.bendsAround(0.9, {-0.1, 0.05}, 0.5, 1e-3, 0.03, 0.0, 12, bends, span));
+  ASSERT_EQ(bends.size(), 1u);
+  EXPECT_EQ(bends[0].vertex, corner.corners()[0].vertex);
+  EXPECT_EQ(bends[0].turn, corner.corners()[0].turn);
+  EXPECT_EQ(span.first, 0.0);
+  EXPECT_EQ(span.second, corner.length());
+}
+
 TEST(ScratchPath, SideAndEnds) {
   ScratchPath p = ScratchPath::polyline({{0, 0}, {10, 0}, {10, 10}});  // right, then up (left turn)
   PathPoint a = p.closest({5, 1});

@@ -273,6 +273,21 @@ LAYOUTS["knot"] = """
     hardness_hv: 30
 """
 
+# A cubic that curls into a loop about 0.3 mm across and crosses its own way (seen at 2 degrees):
+# its flattened vertices turn by 2 to 40 degrees each, corners and not. The polygons follow its
+# bends (ScratchPath::bendsAround; docs/grooves.md, "Bends"), where its corners' straight legs or
+# its tangent stood for it before.
+LAYOUTS["curl"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: bezier
+    center: [0.5, 0.5]
+    path_mm: [-2.6223, 2.5, 2.7241, -4.7441, -1.0104, 4.4945, 0.1786, -4.4296]
+    force_kg: 2
+    hardness_hv: 30
+"""
+
 LIGHTS = {
     # Bright field through a glass part: a 12 x 12 mm panel 50 mm below the plate, facing up, which
     # the flat glass shows whole; a groove's facets refract the view off it.

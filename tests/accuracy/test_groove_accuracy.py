@@ -240,9 +240,26 @@ class GrooveAccuracy(unittest.TestCase):
 
     def test_knot_bar(self):
         """The same under the bar light: 0.814% of pixels >= 10 (mean dE 0.408), past the target,
-        before; now 0.098% (0.220). Bounded at 0.3%."""
+        before; 0.098% (0.220) with the chains of corners, and 0.054% (0.203) since the bends
+        (docs/grooves.md, "Bends") let more of its chains through. Bounded at 0.3%."""
         st = self.check("knot", "bar", fov_deg=2)
         self.assertLess(st["pct_ge_10"], 0.3)
+
+    def test_curl_ring(self):
+        """A cubic that curls into a loop about 0.3 mm across (groove_scenes.LAYOUTS["curl"], seen
+        at 2 degrees) under the ring light. The polygons follow the path's bends near the
+        footprint, simplified to within a twentieth of its radius there and more farther away
+        (ScratchPath::bendsAround; docs/grooves.md, "Bends"). Before 2026-11-29 the straight legs
+        between the loop's corners, and the tangent where a pass had none, ran across it: 5.82% of
+        pixels >= 10 (mean dE 3.42), now 0.130% (0.195). Bounded at 0.4%."""
+        st = self.check("curl", "ring", fov_deg=2)
+        self.assertLess(st["pct_ge_10"], 0.4)
+
+    def test_curl_bar(self):
+        """The same under the bar light: 4.24% of pixels >= 10 (mean dE 2.38) before, now 0.043%
+        (0.249). Bounded at 0.4%."""
+        st = self.check("curl", "bar", fov_deg=2)
+        self.assertLess(st["pct_ge_10"], 0.4)
 
     def test_dense_crossings_bar(self):
         """Six scratches crossed by six (groove_scenes.LAYOUTS["dense"]) under the bar light: at the

@@ -1344,7 +1344,10 @@ class Tracer {
   // tolerance with 12 bends, 1.19% (ring) and 0.88% (bar); growth 0.03 with 16 bends, 0.13% and
   // 0.03%; with 20 or 24 bends more chains pass chainParts' caps and fall back.
   // Only where the path within the region strays from its tangent by more than kBendStray of the
-  // groove's half-width at its largest scale: a gently curved groove keeps its tangent and its
+  // groove's half-width at its largest scale or of the footprint's radius, whichever is larger (a
+  // footprint wider than the groove, the door's at an inspection camera's scale, sees no bend
+  // below its own size; with the half-width alone the door's key scratches took bends there, for
+  // a quarter more time at 1 spp and no gain): a gently curved groove keeps its tangent and its
   // pieces along the path (scaleSegments), which follow a fading tip's scale where the bends' legs
   // are linear (the accuracy test's `tips` under the bar: 1.04% of pixels >= 10 with bends
   // everywhere, 0.195% with this rule, 0.174% without bends; `curl` at 1.5 half-widths: 0.53%).
@@ -1593,7 +1596,8 @@ class Tracer {
       const NearGroove& ng = near[i];
       const ScratchPath& path = ng.sc->path();
       std::pair<double, double> span;
-      const double min_stray = kBendStray * ng.sc->referenceProfile().halfExtent() * double(ng.sc->maxScale());
+      const double min_stray =
+          kBendStray * std::max(ng.sc->referenceProfile().halfExtent() * double(ng.sc->maxScale()), double(footprintOf(sp)));
       if (!path.bendsAround(double(ng.pp.s), F, corner_reach, kBendTol * double(footprintOf(sp)), kBendGrowth, min_stray, kMaxBends, bends, span))
         continue;
       // Just the corners chainRange found: those.

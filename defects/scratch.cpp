@@ -136,7 +136,8 @@ std::pair<double, double> ScratchPath::spanAt(double s) const {
 }
 
 bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, double growth, double min_stray,
-                              size_t max_bends, std::vector<Corner>& out, std::pair<double, double>& span) const {
+                              size_t max_bends, double max_dev, std::vector<Corner>& out,
+                              std::pair<double, double>& span) const {
   out.clear();
   // The window: from s's segment out to the first vertex on each side beyond `reach`.
   const size_t last = pts_.size() - 1;
@@ -153,9 +154,19 @@ bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, doubl
   if (!strays) return false;
   thread_local std::vector<char> keep;
   double dp_tol = tol;
-  for (int round = 0; round <= 16; ++round, dp_tol *= 2) {
+  for (int round = 0; round <= 16; ++round, (growth > 0 ? growth : dp_tol) *= 2) {
     keep.assign(pts_.size(), 0);
     simplifyBy(pts_, a, b, [&](size_t i) { return dp_tol + growth * len2(pts_[i] - p); }, keep);
+    // The kept leg that holds s's segment, where it turns from that segment by more than max_dev:
+    // the segment's own ends as well.
+    size_t lo = seg, hi = seg + 1;
+    while (lo > a && !keep[lo]) --lo;
+    while (hi < b && !keep[hi]) ++hi;
+    const Vec2d dl = pts_[hi] - pts_[lo], ds = pts_[seg + 1] - pts_[seg];
+    if (std::fabs(std::atan2(cross(dl, ds), dot(dl, ds))) > max_dev) {
+      if (seg > a) keep[seg] = 1;
+      if (seg + 1 < b) keep[seg + 1] = 1;
+    }
     size_t kept = 0;
     for (size_t i = a + 1; i < b; ++i) kept += keep[i] != 0;
     if (kept == 0) return false;

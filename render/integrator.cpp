@@ -1353,6 +1353,10 @@ class Tracer {
   // everywhere, 0.195% with this rule, 0.174% without bends; `curl` at 1.5 half-widths: 0.53%).
   static constexpr double kBendTol = 0.05, kBendGrowth = 0.03, kBendStray = 1.0;
   static constexpr size_t kMaxBends = 16;
+  // Where the bends' leg over the closest point's segment turns from it by more than kBendDev, the
+  // segment's ends are bends too (bendsAround): a groove wall's glint moves along a curve with its
+  // direction (the accuracy test's `loop` under the bar: 0.141% of pixels >= 10 without, 0.043%).
+  static constexpr double kBendDev = 1.0 * M_PI / 180.0;
   // The corners cornerGroove takes for ng: `at` the one cornerAround gives, [lo, hi] the chain
   // around it (on along the path both ways while the next corner is within `reach` of the
   // footprint's centre F, at most kMaxChain; the one corner alone where the path has faded out at
@@ -1598,7 +1602,8 @@ class Tracer {
       std::pair<double, double> span;
       const double min_stray =
           kBendStray * std::max(ng.sc->referenceProfile().halfExtent() * double(ng.sc->maxScale()), double(footprintOf(sp)));
-      if (!path.bendsAround(double(ng.pp.s), F, corner_reach, kBendTol * double(footprintOf(sp)), kBendGrowth, min_stray, kMaxBends, bends, span))
+      if (!path.bendsAround(double(ng.pp.s), F, corner_reach, kBendTol * double(footprintOf(sp)), kBendGrowth, min_stray,
+                            kMaxBends, kBendDev, bends, span))
         continue;
       // Just the corners chainRange found: those.
       bool same = has_corner[i] && bends.size() == chain[i][2] - chain[i][1] + 1;

@@ -602,7 +602,7 @@ TEST(ScratchPath, BendsFollowACurveWithinTheTolerance) {
   std::pair<double, double> span;
   for (const double growth : {0.0, 0.05}) {
     const double tol = 1e-3;
-    ASSERT_TRUE(arc.bendsAround(s, p, 0.2, tol, growth, 0.0, 16, bends, span)) << growth;
+    ASSERT_TRUE(arc.bendsAround(s, p, 0.2, tol, growth, 0.0, 16, M_PI, bends, span)) << growth;
     ASSERT_GE(bends.size(), 2u);
     EXPECT_LE(bends.size(), 16u);
     // The window: around s, beyond the reach at both ends.
@@ -615,7 +615,9 @@ TEST(ScratchPath, BendsFollowACurveWithinTheTolerance) {
     for (size_t k = 0; k < bends.size(); ++k) {
       poly.push_back(bends[k].p);
       turn += bends[k].turn;
-      if (k > 0) EXPECT_GT(bends[k].s, bends[k - 1].s);
+      if (k > 0) {
+        EXPECT_GT(bends[k].s, bends[k - 1].s);
+      }
       EXPECT_LT(std::hypot(bends[k].p.x - arc.pointAt(bends[k].s).x, bends[k].p.y - arc.pointAt(bends[k].s).y), 1e-12);
     }
     poly.push_back(arc.pointAt(span.second));
@@ -638,19 +640,71 @@ TEST(ScratchPath, BendsFollowACurveWithinTheTolerance) {
     EXPECT_EQ(bends.size(), growth > 0 ? 3u : 7u);
   }
   // At most 3 bends: the tolerance doubles until they fit.
-  ASSERT_TRUE(arc.bendsAround(s, p, 0.2, 1e-3, 0.0, 0.0, 3, bends, span));
+  ASSERT_TRUE(arc.bendsAround(s, p, 0.2, 1e-3, 0.0, 0.0, 3, M_PI, bends, span));
   EXPECT_LE(bends.size(), 3u);
   // A straight line (its middle vertex on the line) has none, and a polyline's corner is its bend.
   const ScratchPath line = ScratchPath::polyline({{-1, 0}, {-0.5, 0.0}, {1, 0}});
-  EXPECT_FALSE(line.bendsAround(0.9, {-0.1, 0.05}, 0.5, 1e-6, 0.0, 0.0, 12, bends, span));
+  EXPECT_FALSE(line.bendsAround(0.9, {-0.1, 0.05}, 0.5, 1e-6, 0.0, 0.0, 12, M_PI, bends, span));
   EXPECT_TRUE(bends.empty());
   const ScratchPath corner = ScratchPath::polyline({{-1, 0}, {0, 0}, {0, 1}});
-  ASSERT_TRUE(corner.bendsAround(0.9, {-0.1, 0.05}, 0.5, 1e-3, 0.03, 0.0, 12, bends, span));
+  ASSERT_TRUE(corner.bendsAround(0.9, {-0.1, 0.05}, 0.5, 1e-3, 0.03, 0.0, 12, M_PI, bends, span));
   ASSERT_EQ(bends.size(), 1u);
   EXPECT_EQ(bends[0].vertex, corner.corners()[0].vertex);
   EXPECT_EQ(bends[0].turn, corner.corners()[0].turn);
   EXPECT_EQ(span.first, 0.0);
   EXPECT_EQ(span.second, corner.length());
+}
+
+// The leg over p's own segment takes the path's direction there where the simplified chord turns
+// from it by more than max_dev (a wall's glint moves along a curve with its direction; the
+// accuracy test's `loop` under the bar): that segment's two ends are bends too. And past
+// max_bends the growth doubles, not the tolerance, so the path near p stays within tol.
+TEST(ScratchPath, BendsKeepTheDirectionAtTheFootprint) {
+  const ScratchPath arc = ScratchPath::arc({0, 0}, 0.3, 0, M_PI, 1e-5);
+  const Vec2d p(0.1, 0.33);
+  const double s = double(arc.closest(Vec2f(0.1f, 0.33f)).s);
+  std::vector<ScratchPath::Corner> bends;
+  std::pair<double, double> span;
+  // The direction of the bends' leg that holds s against the path's own segment there.
+  auto deviation = [&] {
+    Vec2d t = bends.front().t_in;
+    for (const ScratchPath::Corner& c : bends)
+      if (c.s <= s) t = c.t_out;
+    const Vec2d u = arc.tangentAt(s);
+    return std::fabs(std::atan2(t.x * u.y - t.y * u.x, t.x * u.x + t.y * u.y));
+  };
+  const double tol = 4e-3, dev = M_PI / 180;
+  ASSERT_TRUE(arc.bendsAround(s, p, 0.2, tol, 0.0, 0.0, 16, M_PI, bends, span));
+  const double loose = deviation();
+  const size_t n_loose = bends.size();
+  ASSERT_TRUE(arc.bendsAround(s, p, 0.2, tol, 0.0, 0.0, 16, dev, bends, span));
+  std::printf("[          ] leg at p off the path by %.2f deg with %zu bends, %.2g deg with %zu\n",
+              loose * 180 / M_PI, n_loose, deviation() * 180 / M_PI, bends.size());
+  EXPECT_GT(loose, dev);
+  EXPECT_LT(deviation(), 1e-9);
+  EXPECT_GE(bends.size(), n_loose + 1);
+  EXPECT_LE(bends.size(), n_loose + 2);
+  // Past max_bends the growth doubles, not the tolerance: at p itself, a vertex of the path near
+  // its end (an uneven window), the bends' polyline stays within tol (doubling the tolerance
+  // instead left it 0.0027 away, 27 times tol).
+  std::vector<Vec2d> ring;
+  for (int k = 0; k <= 200; ++k) ring.push_back({0.3 * std::cos(M_PI * k / 200), 0.3 * std::sin(M_PI * k / 200)});
+  const ScratchPath poly_arc = ScratchPath::polyline(ring);
+  const Vec2d on = ring[175];
+  const double s_on = poly_arc.length() * 175 / 200;
+  ASSERT_TRUE(poly_arc.bendsAround(s_on, on, 0.2, 1e-4, 0.005, 0.0, 4, M_PI, bends, span));
+  EXPECT_LE(bends.size(), 4u);
+  std::vector<Vec2d> poly{poly_arc.pointAt(span.first)};
+  for (const ScratchPath::Corner& c : bends) poly.push_back(c.p);
+  poly.push_back(poly_arc.pointAt(span.second));
+  double best = 1e30;
+  for (size_t j = 0; j + 1 < poly.size(); ++j) {
+    const Vec2d a = poly[j], d = poly[j + 1] - a;
+    const double t = std::clamp(((on.x - a.x) * d.x + (on.y - a.y) * d.y) / (d.x * d.x + d.y * d.y), 0.0, 1.0);
+    best = std::min(best, std::hypot(on.x - a.x - d.x * t, on.y - a.y - d.y * t));
+  }
+  std::printf("[          ] %zu bends, %.2g from p\n", bends.size(), best);
+  EXPECT_LE(best, 1e-4);
 }
 
 TEST(ScratchPath, SideAndEnds) {

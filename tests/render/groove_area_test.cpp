@@ -618,7 +618,7 @@ TEST(GrooveArea, BendsOfACurveFollowTheClosestPointOnThePath) {
     const PathPoint pp = path.closest(Vec2f(0, 0));
     std::vector<ScratchPath::Corner> bends;
     std::pair<double, double> span;
-    ASSERT_TRUE(path.bendsAround(double(pp.s), {0, 0}, 0.3, 0.5 * tol, 0.0, 0.0, 12, bends, span)) << c.name;
+    ASSERT_TRUE(path.bendsAround(double(pp.s), {0, 0}, 0.3, 0.5 * tol, 0.0, 0.0, 12, M_PI, bends, span)) << c.name;
     std::vector<Groove> legs_of;
     for (size_t j = 0; j <= bends.size(); ++j) {
       const ScratchPath::Corner& k = bends[j == 0 ? 0 : j - 1];

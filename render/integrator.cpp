@@ -1352,7 +1352,7 @@ class Tracer {
   // are linear (the accuracy test's `tips` under the bar: 1.04% of pixels >= 10 with bends
   // everywhere, 0.195% with this rule, 0.174% without bends; `curl` at 1.5 half-widths: 0.53%).
   static constexpr double kBendTol = 0.05, kBendGrowth = 0.03, kBendStray = 1.0;
-  static constexpr size_t kMaxBends = 16;
+  static constexpr size_t kMaxBends = 16, kMinBends = 4;
   // Where the bends' leg over the closest point's segment turns from it by more than kBendDev, the
   // segment's ends are bends too (bendsAround): a groove wall's glint moves along a curve with its
   // direction (the accuracy test's `loop` under the bar: 0.141% of pixels >= 10 without, 0.043%).
@@ -1602,27 +1602,31 @@ class Tracer {
       std::pair<double, double> span;
       const double min_stray =
           kBendStray * std::max(ng.sc->referenceProfile().halfExtent() * double(ng.sc->maxScale()), double(footprintOf(sp)));
-      if (!path.bendsAround(double(ng.pp.s), F, corner_reach, kBendTol * double(footprintOf(sp)), kBendGrowth, min_stray,
-                            kMaxBends, kBendDev, bends, span))
-        continue;
-      // Just the corners chainRange found: those.
-      bool same = has_corner[i] && bends.size() == chain[i][2] - chain[i][1] + 1;
-      for (size_t k = 0; k < bends.size() && same; ++k) same = bends[k].vertex == path.corners()[chain[i][1] + k].vertex;
-      bool faded = false;
-      for (const ScratchPath::Corner& c : bends) faded = faded || !(ng.sc->scaleAt(float(c.s)) > 0);
-      // The passes joined to its chain (merged_into) must lie in the window, whose bends hold them.
-      bool holds = true;
-      for (size_t j = 0; j < near.size(); ++j)
-        holds = holds && (merged_into[j] != i || (double(near[j].pp.s) >= span.first && double(near[j].pp.s) <= span.second));
-      if (same || faded || !holds) continue;
-      corner_profile[i] = profiles.size();
-      if (chainGroove(sp, ng, int(i), bends.data(), bends.size(), span.first, span.second, true, bound, gs, mm,
-                      profiles, corner_parts[i], corner_g[i])) {
-        has_corner[i] = bent[i] = 1;
-        pass_bends[i] = bends;
-        corner_span[i] = span;
-      } else {
-        profiles.resize(corner_profile[i]);
+      // Where chainParts refuses the chain at its caps, fewer bends before none: the tangent across
+      // a tight curl stands a straight groove over it.
+      for (size_t max_bends = kMaxBends; max_bends >= kMinBends && !bent[i]; max_bends /= 2) {
+        if (!path.bendsAround(double(ng.pp.s), F, corner_reach, kBendTol * double(footprintOf(sp)), kBendGrowth, min_stray,
+                              max_bends, kBendDev, bends, span))
+          break;
+        // Just the corners chainRange found: those.
+        bool same = has_corner[i] && bends.size() == chain[i][2] - chain[i][1] + 1;
+        for (size_t k = 0; k < bends.size() && same; ++k) same = bends[k].vertex == path.corners()[chain[i][1] + k].vertex;
+        bool faded = false;
+        for (const ScratchPath::Corner& c : bends) faded = faded || !(ng.sc->scaleAt(float(c.s)) > 0);
+        // The passes joined to its chain (merged_into) must lie in the window, whose bends hold them.
+        bool holds = true;
+        for (size_t j = 0; j < near.size(); ++j)
+          holds = holds && (merged_into[j] != i || (double(near[j].pp.s) >= span.first && double(near[j].pp.s) <= span.second));
+        if (same || faded || !holds) break;
+        corner_profile[i] = profiles.size();
+        if (chainGroove(sp, ng, int(i), bends.data(), bends.size(), span.first, span.second, true, bound, gs, mm,
+                        profiles, corner_parts[i], corner_g[i])) {
+          has_corner[i] = bent[i] = 1;
+          pass_bends[i] = bends;
+          corner_span[i] = span;
+        } else {
+          profiles.resize(corner_profile[i]);
+        }
       }
     }
     for (size_t i = 0; i < near.size(); ++i)

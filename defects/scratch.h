@@ -122,10 +122,10 @@ class ScratchPath {
   // (vertex, s, p, the simplified legs' directions and the turn between them; a polyline's corners
   // are kept as such where their legs are straight), and `span` the window's arc range. Where the
   // kept leg over s's own segment turns from that segment by more than max_dev (radians), the
-  // segment's two ends are kept too, so that the leg at p has the
-  // path's own direction: a wall's glint moves along a curve with its direction. Where more than
-  // max_bends are kept, growth is doubled (tol where growth is 0), up to 16 times, so that the
-  // path stays as close near p. False (out cleared) where no vertex is kept, or past that.
+  // segment's two ends are kept too, so that the leg at p has the path's own direction: a wall's
+  // glint moves along a curve with its direction. Where more than max_bends are kept, growth is
+  // doubled (tol where growth is 0), up to 16 times, so that the path stays as close near p.
+  // False (out cleared) where no vertex is kept, or past that.
   bool bendsAround(double s, Vec2d p, double reach, double tol, double growth, double min_stray, size_t max_bends,
                    double max_dev, std::vector<Corner>& out, std::pair<double, double>& span) const;
 

@@ -4,7 +4,6 @@
 #include "defects/scratch.h"
 
 #include <algorithm>
-#include <cstdlib>
 #include <cmath>
 #include <iomanip>
 #include <sstream>

@@ -1595,18 +1595,19 @@ class Tracer {
     bent.assign(near.size(), 0);
     thread_local std::vector<std::vector<ScratchPath::Corner>> pass_bends;
     if (pass_bends.size() < near.size()) pass_bends.resize(near.size());
+    const double fp_uv = double(footprintOf(sp));  // the footprint's radius (uv)
     for (size_t i = 0; i < near.size() && with_bends; ++i) {
       if (merged_into[i] != size_t(-1)) continue;
       const NearGroove& ng = near[i];
       const ScratchPath& path = ng.sc->path();
       std::pair<double, double> span;
       const double min_stray =
-          kBendStray * std::max(ng.sc->referenceProfile().halfExtent() * double(ng.sc->maxScale()), double(footprintOf(sp)));
+          kBendStray * std::max(ng.sc->referenceProfile().halfExtent() * double(ng.sc->maxScale()), fp_uv);
       // Where chainParts refuses the chain at its caps, fewer bends before none: the tangent across
       // a tight curl stands a straight groove over it.
       for (size_t max_bends = kMaxBends; max_bends >= kMinBends && !bent[i]; max_bends /= 2) {
-        if (!path.bendsAround(double(ng.pp.s), F, corner_reach, kBendTol * double(footprintOf(sp)), kBendGrowth, min_stray,
-                              max_bends, kBendDev, bends, span))
+        if (!path.bendsAround(double(ng.pp.s), F, corner_reach, kBendTol * fp_uv, kBendGrowth, min_stray, max_bends,
+                              kBendDev, bends, span))
           break;
         // Just the corners chainRange found: those.
         bool same = has_corner[i] && bends.size() == chain[i][2] - chain[i][1] + 1;

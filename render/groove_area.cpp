@@ -643,6 +643,37 @@ bool passParts(const Groove& a, const Groove& b, std::vector<Groove>& parts) {
   return true;
 }
 
+bool centreLinesWithin(const Groove& a, const Groove& b, double r, double w) {
+  // Each centre line within the disc: the point at t is tdir (t - t0) - bdir b0, at distance
+  // sqrt((t - t0)^2 + b0^2) from the origin.
+  Vec2d p[2], q[2];
+  auto inDisc = [r](const Groove& g, Vec2d* e) {
+    if (!(std::fabs(g.b0) <= r)) return false;
+    const double h = std::sqrt(r * r - g.b0 * g.b0);
+    const double t_lo = std::max(g.t_lo, g.t0 - h), t_hi = std::min(g.t_hi, g.t0 + h);
+    if (!(t_lo <= t_hi)) return false;
+    e[0] = g.tdir * (t_lo - g.t0) - g.bdir * g.b0;
+    e[1] = g.tdir * (t_hi - g.t0) - g.bdir * g.b0;
+    return true;
+  };
+  if (!inDisc(a, p) || !inDisc(b, q)) return false;
+  // Crossing segments are at distance 0.
+  const Vec2d da = p[1] - p[0], db = q[1] - q[0];
+  const double s1 = cross(da, q[0] - p[0]), s2 = cross(da, q[1] - p[0]);
+  const double s3 = cross(db, p[0] - q[0]), s4 = cross(db, p[1] - q[0]);
+  if (((s1 < 0 && s2 > 0) || (s1 > 0 && s2 < 0)) && ((s3 < 0 && s4 > 0) || (s3 > 0 && s4 < 0))) return true;
+  // Else the nearest pair has an end point of one of them.
+  auto dist2 = [](Vec2d x, Vec2d e0, Vec2d e1) {
+    const Vec2d d = e1 - e0, v = x - e0;
+    const double dd = dot(d, d);
+    const Vec2d n = v - d * (dd > 0 ? std::clamp(dot(v, d) / dd, 0.0, 1.0) : 0.0);
+    return dot(n, n);
+  };
+  const double d2 = std::min(std::min(dist2(p[0], q[0], q[1]), dist2(p[1], q[0], q[1])),
+                             std::min(dist2(q[0], p[0], p[1]), dist2(q[1], p[0], p[1])));
+  return d2 <= w * w;
+}
+
 bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   pieces_.clear();
   cache_keys_ = 0;

@@ -162,6 +162,12 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
 // composite is either.
 bool passParts(const Groove& a, const Groove& b, std::vector<Groove>& out_parts);
 
+// Whether the centre lines of grooves a and b (each its line b = 0 over [t_lo, t_hi]; not parts)
+// come within w of each other inside the disc of radius r about the origin: where two passes of one
+// path, each of half-width w / 2 at most, do not, their grooves do not overlap there, and their
+// composite is the surface that chainParts' partition by nearness would give.
+bool centreLinesWithin(const Groove& a, const Groove& b, double r, double w);
+
 // A planar convex piece of the composite surface.
 struct Piece {
   Poly poly;    // in (x, y)

@@ -705,6 +705,64 @@ TEST(GrooveArea, APathsTwoPassesEachHoldWhereTheyAreTheNearer) {
   EXPECT_TRUE(parts.empty());
 }
 
+// centreLinesWithin (the renderer's test for whether two passes of one path need one partition by
+// nearness or can be composited): by hand, then against the least distance between points spaced
+// 5 * 10^-4 mm along both centre lines within the disc, for random lines, ranges and widths.
+TEST(GrooveArea, CentreLinesWithinIsTheirDistanceInTheDisc) {
+  // Crossing lines; lines 0.3 mm apart; a crossing outside the disc; a groove that ends short of
+  // the other's line.
+  EXPECT_TRUE(centreLinesWithin(along({1, 0}, 0.0, 0), along(dirOf(70), 0.05, 0), 1.0, 1e-6));
+  EXPECT_FALSE(centreLinesWithin(along({1, 0}, 0.0, 0), along({1, 0}, 0.3, 0), 1.0, 0.29));
+  EXPECT_TRUE(centreLinesWithin(along({1, 0}, 0.0, 0), along({1, 0}, 0.3, 0), 1.0, 0.31));
+  EXPECT_FALSE(centreLinesWithin(along({1, 0}, 0.0, 0), along({1, 0}, 0.3, 0), 0.29, 1.0));  // b off the disc
+  Groove far = along(dirOf(90), 0.0, 0);  // the line x = 0 ...
+  far.t0 = 2;                             // ... through (0, -2): t = 0 there
+  EXPECT_TRUE(centreLinesWithin(along({1, 0}, 0.0, 0), far, 1.0, 1e-6));
+  far.t_hi = 1.9;  // stops at y = -0.1
+  EXPECT_FALSE(centreLinesWithin(along({1, 0}, 0.0, 0), far, 1.0, 0.09));
+  EXPECT_TRUE(centreLinesWithin(along({1, 0}, 0.0, 0), far, 1.0, 0.11));
+  // The lines x = -0.95 and y = -0.5 cross at (-0.95, -0.5), outside the disc of radius 1; within
+  // it they come nearest at their ends, (-0.95, -0.312) and (-0.866, -0.5), 0.206 apart.
+  Groove side = along(dirOf(90), -0.95, 0);
+  EXPECT_FALSE(centreLinesWithin(along({1, 0}, 0.5, 0), side, 1.0, 0.2));
+  EXPECT_TRUE(centreLinesWithin(along({1, 0}, 0.5, 0), side, 1.0, 0.21));
+
+  Rng rng(20261129);
+  auto uni = [&](double a, double b) { return a + (b - a) * rng.uniformD(); };
+  int checked = 0, near = 0;
+  for (int trial = 0; trial < 150; ++trial) {
+    Groove g[2];
+    for (Groove& q : g) {
+      q = along(dirOf(uni(0, 360)), uni(-0.6, 0.6), 0);
+      q.t0 = uni(-0.5, 0.5);
+      q.t_lo = rng.uniformD() < 0.5 ? -1e30 : uni(-1, 0.2);
+      q.t_hi = rng.uniformD() < 0.5 ? 1e30 : q.t_lo + uni(0.05, 1);
+      if (q.t_hi > 1e29 && q.t_lo < -1e29) q.t_lo = uni(-1, 0.2);
+    }
+    const double r = 0.5;
+    // The points of each centre line in the disc.
+    std::vector<Vec2d> pts[2];
+    for (int i = 0; i < 2; ++i)
+      for (double t = std::max(g[i].t_lo, g[i].t0 - r); t <= std::min(g[i].t_hi, g[i].t0 + r); t += 5e-4) {
+        const Vec2d p = g[i].tdir * (t - g[i].t0) - g[i].bdir * g[i].b0;
+        if (std::hypot(p.x, p.y) <= r) pts[i].push_back(p);
+      }
+    double least2 = std::numeric_limits<double>::infinity();
+    for (const Vec2d& p : pts[0])
+      for (const Vec2d& q : pts[1]) least2 = std::min(least2, dot(p - q, p - q));
+    const double least = std::sqrt(least2);
+    // Any width, or one within 15% of the least distance either way.
+    const double w = trial % 2 || !(least > 0.02) ? uni(0.01, 0.4) : least * (trial % 4 ? uni(0.85, 0.99) : uni(1.01, 1.15));
+    if (std::fabs(least - w) < 5e-4) continue;  // too close to call at this spacing
+    ++checked;
+    near += least < w;
+    EXPECT_EQ(centreLinesWithin(g[0], g[1], r, w), least < w) << "trial " << trial << ": least " << least << ", w " << w;
+  }
+  EXPECT_GT(checked, 140);
+  EXPECT_GT(near, 15);  // both answers are checked
+  EXPECT_LT(near, checked - 15);
+}
+
 // A groove that stops abruptly at x = 0: the wall across its end (the V's cross-section, 0.001
 // mm^2) is seen, lit and hit like any other piece, with the shares that its geometry gives.
 TEST(GrooveArea, AnAbruptEndsWallIsSeenLitAndHit) {

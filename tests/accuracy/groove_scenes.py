@@ -288,6 +288,22 @@ LAYOUTS["curl"] = """
     hardness_hv: 30
 """
 
+# A path that crosses its own earlier leg next to a corner (seen at 2 degrees): down along x = -0.1
+# mm, back up 0.15 mm beside it (the turn 4 mm away, out of view), then a corner of 108 degrees to
+# the left whose outgoing leg crosses the first leg 0.16 mm from the vertex. The corner's legs and
+# the first leg are runs of one partition, each holding where it is the nearer (docs/grooves.md,
+# "A path that comes back"), as in the corner fuzzer's c5_8.
+LAYOUTS["hook"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5, 0.5]
+    path_mm: [-0.1, 4, -0.1, -4, 0.05, 0.1, -4, -1.2]
+    force_kg: 2
+    hardness_hv: 30
+"""
+
 LIGHTS = {
     # Bright field through a glass part: a 12 x 12 mm panel 50 mm below the plate, facing up, which
     # the flat glass shows whole; a groove's facets refract the view off it.

@@ -289,10 +289,10 @@ LAYOUTS["curl"] = """
 """
 
 # A path that crosses its own earlier leg next to a corner (seen at 2 degrees): down along x = -0.1
-# mm, back up 0.15 mm beside it (the turn 4 mm away, out of view), then a corner of 108 degrees to
-# the left whose outgoing leg crosses the first leg 0.16 mm from the vertex. The corner's legs and
-# the first leg are runs of one partition, each holding where it is the nearer (docs/grooves.md,
-# "A path that comes back"), as in the corner fuzzer's c5_8.
+# mm, back up beside it, 0.15 mm apart at the top (the turn 4 mm away, out of view), then a corner
+# of 110 degrees to the left whose outgoing leg crosses the first leg 0.16 mm from the vertex. The
+# corner's legs and the first leg are runs of one partition, each holding where it is the nearer
+# (docs/grooves.md, "A path that comes back"), as in the corner fuzzer's c5_8.
 LAYOUTS["hook"] = """
   - type: scratch
     count: 1

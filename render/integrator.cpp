@@ -1713,7 +1713,7 @@ class Tracer {
       bool touch = false;
       for (size_t j : members) touch = touch || bent[j];
       if (ok && !touch) {
-        const double w = 2 * sc->referenceProfile().halfExtent() * double(sc->maxScale());
+        const double w = 2 * sc->referenceProfile().halfExtent() * double(sc->maxScale()) * mm;  // (profile in uv)
         const double r = fp_r + double(view_reach) * std::sqrt(2.0) + 1e-3;
         for (size_t k = 0, run_k = 0; k < run_legs.size() && !touch; ++k) {
           while (run_k < run_starts.size() && run_starts[run_k] <= k) ++run_k;  // leg k is in run run_k

@@ -312,10 +312,99 @@ const Groove* partAt(const Groove& g, Vec2d p) {
 
 }  // namespace
 
+void Surface::indexParts(const Poly& region) {
+  part_index_.resize(std::max(part_index_.size(), grooves_.size()));
+  Vec2d rlo(1e300, 1e300), rhi(-1e300, -1e300);
+  region.extend(rlo, rhi);
+  rlo = rlo - Vec2d(kPartMargin, kPartMargin);
+  rhi = rhi + Vec2d(kPartMargin, kPartMargin);
+  Poly grown;
+  grown.push(rlo);
+  grown.push(Vec2d(rhi.x, rlo.y));
+  grown.push(rhi);
+  grown.push(Vec2d(rlo.x, rhi.y));
+  for (size_t gi = 0; gi < grooves_.size(); ++gi) {
+    PartIndex& ix = part_index_[gi];
+    ix.box_lo.clear();
+    ix.box_hi.clear();
+    const Groove& g = grooves_[gi];
+    if (!g.parts) continue;
+    ix.lo = rlo;
+    ix.hi = rhi;
+    ix.inv = Vec2d(kPartBins / std::max(rhi.x - rlo.x, 1e-300), kPartBins / std::max(rhi.y - rlo.y, 1e-300));
+    const size_t np = g.parts->size();
+    ix.box_lo.resize(np);
+    ix.box_hi.resize(np);
+    ix.start.assign(size_t(kPartBins * kPartBins + 1), 0);
+    for (int pass = 0; pass < 2; ++pass) {
+      if (pass == 1) {
+        for (size_t b = 1; b < ix.start.size(); ++b) ix.start[b] += ix.start[b - 1];
+        ix.list.resize(ix.start.back());
+      }
+      for (size_t q = 0; q < np; ++q) {
+        Vec2d& lo = ix.box_lo[q];
+        Vec2d& hi = ix.box_hi[q];
+        if (pass == 0) {
+          const Groove& part = (*g.parts)[q];
+          Poly d = grown;
+          for (int k = 0; k < part.n_dom && !d.empty(); ++k) d = clip(d, part.dom[k].a, part.dom[k].c);
+          lo = Vec2d(1e300, 1e300);
+          hi = Vec2d(-1e300, -1e300);
+          if (d.empty()) continue;
+          d.extend(lo, hi);
+          lo = lo - Vec2d(kPartMargin, kPartMargin);
+          hi = hi + Vec2d(kPartMargin, kPartMargin);
+        }
+        if (!(lo.x <= hi.x)) continue;
+        const int x0 = partBin(ix, lo.x, 0), x1 = partBin(ix, hi.x, 0);
+        const int y0 = partBin(ix, lo.y, 1), y1 = partBin(ix, hi.y, 1);
+        for (int y = y0; y <= y1; ++y)
+          for (int x = x0; x <= x1; ++x) {
+            const size_t b = size_t(y * kPartBins + x);
+            if (pass == 0)
+              ++ix.start[b + 1];
+            else
+              ix.list[ix.start[b]++] = uint32_t(q);
+          }
+      }
+    }
+    // (The fill moved each start to the next bin's; back by one bin.)
+    for (size_t b = ix.start.size() - 1; b > 0; --b) ix.start[b] = ix.start[b - 1];
+    ix.start[0] = 0;
+  }
+  parts_indexed_ = true;
+}
+
+int Surface::partBin(const PartIndex& ix, double v, int axis) {
+  const double f = axis == 0 ? (v - ix.lo.x) * ix.inv.x : (v - ix.lo.y) * ix.inv.y;  // monotone in v
+  if (!(f > 0)) return 0;
+  if (!(f < double(kPartBins - 1))) return kPartBins - 1;
+  return int(f);
+}
+
+const Groove* Surface::partOf(size_t gi, Vec2d p) const {
+  const Groove& g = grooves_[gi];
+  if (!parts_indexed_) return partAt(g, p);
+  const PartIndex& ix = part_index_[gi];
+  // Outside the grown region (a point the surface was not built for): every part.
+  if (!(p.x >= ix.lo.x && p.x <= ix.hi.x && p.y >= ix.lo.y && p.y <= ix.hi.y)) return partAt(g, p);
+  const size_t b = size_t(partBin(ix, p.y, 1) * kPartBins + partBin(ix, p.x, 0));
+  for (uint32_t k = ix.start[b]; k < ix.start[b + 1]; ++k) {
+    const size_t q = ix.list[k];
+    if (p.x < ix.box_lo[q].x || p.x > ix.box_hi[q].x || p.y < ix.box_lo[q].y || p.y > ix.box_hi[q].y) continue;
+    const Groove& part = (*g.parts)[q];
+    bool in = true;
+    for (int j = 0; j < part.n_dom && in; ++j) in = part.dom[j].holds(p);
+    if (in) return &part;
+  }
+  return nullptr;
+}
+
 double Surface::heightAt(Vec2d p) const {
   double lo = 0, hi = 0;
-  for (const Groove& g : grooves_) {
-    const Groove* q = g.parts ? partAt(g, p) : &g;
+  for (size_t gi = 0; gi < grooves_.size(); ++gi) {
+    const Groove& g = grooves_[gi];
+    const Groove* q = g.parts ? partOf(gi, p) : &g;
     if (!q) continue;
     const double h = grooveHeight(*q, p);
     lo = std::min(lo, h);
@@ -469,6 +558,18 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
     HalfPlane h[2 * Groove::kMaxDom + 1];
     int nh = 0;
     int owner = -1;
+    Cell() {}
+    // (Copies only the half-planes in use: cells are copied at every cut.)
+    Cell(const Cell& o) : poly(o.poly), nh(o.nh), owner(o.owner) { std::copy(o.h, o.h + o.nh, h); }
+    Cell& operator=(const Cell& o) {
+      if (this != &o) {
+        poly = o.poly;
+        nh = o.nh;
+        owner = o.owner;
+        std::copy(o.h, o.h + o.nh, h);
+      }
+      return *this;
+    }
   };
   thread_local std::vector<Cell> cells, next;
   cells.assign(1, Cell{});
@@ -500,9 +601,12 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
   bool overflow = false;
   // c cut by h (kept where h holds); false where nothing of area is left.
   auto cut = [&](const Cell& c, const HalfPlane& h, Cell& out) {
-    out = c;
-    out.poly = clip(c.poly, h.a, h.c);
-    if (out.poly.empty() || out.poly.area() <= kSliver) return false;
+    Poly p = clip(c.poly, h.a, h.c);
+    if (p.empty() || p.area() <= kSliver) return false;
+    out.nh = c.nh;
+    out.owner = c.owner;
+    std::copy(c.h, c.h + c.nh, out.h);
+    out.poly = p;
     // (Lines met again, such as a leg's end normal that is also its corner's first sector's
     // edge, are kept once.)
     bool again = false;
@@ -543,6 +647,20 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
     for (const Cell& c0 : cells) {
       // Where both are flat (beyond their cross-sections) which one holds makes no difference.
       if (c0.owner >= 0 && flat(c0, cd) && flat(c0, cands[size_t(c0.owner)])) {
+        next.push_back(c0);
+        continue;
+      }
+      // A cell wholly outside one of the candidate's domain lines stays whole (as the cuts below
+      // would leave it).
+      bool outside = false;
+      for (int k = 0; k < cd.g.n_dom && !outside; ++k) {
+        const HalfPlane& h = cd.g.dom[k];
+        bool all_out = std::fabs(h.a.x) + std::fabs(h.a.y) >= 1e-12;  // (clip's rule)
+        for (int j = 0; j < c0.poly.n && all_out; ++j)
+          all_out = h.a.x * c0.poly.v[size_t(j)].x + h.a.y * c0.poly.v[size_t(j)].y + h.c > 0;
+        outside = all_out;
+      }
+      if (outside) {
         next.push_back(c0);
         continue;
       }
@@ -680,7 +798,9 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   mirror_built_ = false;
   walls_.clear();
   grooves_ = grooves;
+  parts_indexed_ = false;
   if (grooves.size() > kMaxGrooves) return false;
+  indexParts(region);
   struct Cell {
     Poly poly;
     Plane f[kMaxGrooves];
@@ -698,11 +818,21 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
     const Groove& g0 = grooves[gi];
     // A corner's groove: each part over the part of the cell within its domain.
     const size_t np = g0.parts ? g0.parts->size() : 1;
+    const PartIndex& ix = part_index_[gi];
+    // (A part whose domain misses the region takes no cell.)
+    auto misses = [&](size_t q) { return g0.parts && !(ix.box_lo[q].x <= ix.box_hi[q].x); };
     if (part_zones.size() < np) part_zones.resize(np);
-    for (size_t q = 0; q < np; ++q) zonesOf(g0.parts ? (*g0.parts)[q] : g0, part_zones[q]);
+    for (size_t q = 0; q < np; ++q)
+      if (!misses(q)) zonesOf(g0.parts ? (*g0.parts)[q] : g0, part_zones[q]);
     next.clear();
-    for (const Cell& c : cells)
+    for (const Cell& c : cells) {
+      Vec2d clo(1e300, 1e300), chi(-1e300, -1e300);
+      if (g0.parts) c.poly.extend(clo, chi);
       for (size_t q = 0; q < np; ++q) {
+        // A part whose box misses the cell's: their intersection is empty.
+        if (g0.parts && !(ix.box_lo[q].x <= chi.x && clo.x <= ix.box_hi[q].x && ix.box_lo[q].y <= chi.y &&
+                          clo.y <= ix.box_hi[q].y))
+          continue;
         const Groove& g = g0.parts ? (*g0.parts)[q] : g0;
         const std::vector<Zone>& zones = part_zones[q];
         thread_local Poly clipped;
@@ -749,6 +879,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
           n.zero[gi] = z.zero;
         }
       }
+    }
     cells.swap(next);
   }
   // In each cell every groove's height is one plane f_i (f = 0 for the base). The composite is the
@@ -839,6 +970,34 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
     for (int k = 0; k < pc.poly.n; ++k) pc.zmax = std::max(pc.zmax, pc.plane.at(pc.poly.v[size_t(k)]));
   };
   for (Piece& pc : pieces_) bound(pc);
+  // The end lines where a groove's cross-section has not faded out (t = t_lo or t_hi), once each
+  // (a chain's parts of one leg share its line) and only those that pass near the region: a piece
+  // edge along one of them is looked at for a step.
+  struct EndLine {
+    double t0;
+    Vec2d tdir;
+    double te;
+  };
+  thread_local std::vector<EndLine> end_lines;
+  end_lines.clear();
+  for (size_t gi = 0; gi < grooves.size(); ++gi)
+    for (size_t q = 0; q < (grooves[gi].parts ? grooves[gi].parts->size() : 1); ++q) {
+      const Groove& g = grooves[gi].parts ? (*grooves[gi].parts)[q] : grooves[gi];
+      double tmin = 1e300, tmax = -1e300;  // t over the region (linear: extreme at its vertices)
+      for (int k = 0; k < region.n; ++k) {
+        const double t = g.t0 + g.tdir.x * region.v[size_t(k)].x + g.tdir.y * region.v[size_t(k)].y;
+        tmin = std::min(tmin, t);
+        tmax = std::max(tmax, t);
+      }
+      const double slack = 1e-6 * (1 + std::fabs(tmin) + std::fabs(tmax));
+      for (double te : {g.t_lo, g.t_hi}) {
+        if (!(std::fabs(te) < 1e29 && 1 + g.rho * te > 1e-9 && te >= tmin - slack && te <= tmax + slack)) continue;
+        bool seen = false;
+        for (const EndLine& el : end_lines)
+          seen = seen || (el.t0 == g.t0 && el.tdir.x == g.tdir.x && el.tdir.y == g.tdir.y && el.te == te);
+        if (!seen) end_lines.push_back({g.t0, g.tdir, te});
+      }
+    }
   std::vector<Piece> leaning;  // appended to pieces_ at the end
   for (size_t pi = 0; pi < n_flat; ++pi)
     for (int k = 0; k < pieces_[pi].poly.n; ++k) {
@@ -860,14 +1019,11 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
       }
       // (A corner's parts: each leg's end line at the vertex is checked too; the cap beyond it
       // meets it without a step, so no wall is found there.)
-      for (size_t gi = 0; gi < grooves.size() && !step; ++gi)
-        for (size_t q = 0; q < (grooves[gi].parts ? grooves[gi].parts->size() : 1) && !step; ++q) {
-          const Groove& g = grooves[gi].parts ? (*grooves[gi].parts)[q] : grooves[gi];
-          const double ta = g.t0 + g.tdir.x * e0.x + g.tdir.y * e0.y, tb = g.t0 + g.tdir.x * e1.x + g.tdir.y * e1.y;
-          for (double te : {g.t_lo, g.t_hi})  // an end line where the cross-section has not faded out
-            step = step || (std::fabs(te) < 1e29 && 1 + g.rho * te > 1e-9 && std::fabs(ta - te) < 1e-9 &&
-                            std::fabs(tb - te) < 1e-9);
-        }
+      for (size_t k = 0; k < end_lines.size() && !step; ++k) {
+        const EndLine& el = end_lines[k];
+        const double ta = el.t0 + el.tdir.x * e0.x + el.tdir.y * e0.y, tb = el.t0 + el.tdir.x * e1.x + el.tdir.y * e1.y;
+        step = std::fabs(ta - el.te) < 1e-9 && std::fabs(tb - el.te) < 1e-9;
+      }
       if (!step) continue;
       // The pieces beyond: the edge moved kStep outwards, clipped to each (tau in [0, 1] along it).
       const Vec2d s0 = e0 + n * kStep;

@@ -281,6 +281,24 @@ class Surface {
   void candidates(const Plane& P, double den, Vec3d d, Vec2d lo, Vec2d hi, std::vector<size_t>& out) const;
   std::vector<Wall> walls_;
   std::vector<Groove> grooves_;
+  // The parts of a groove made of parts (a chain of bends holds hundreds) that can hold a point
+  // of the region: each part's domain clipped to the region grown by kPartMargin, as a box grown
+  // by it too, and a kPartBins x kPartBins grid over the grown region listing, in order, the parts
+  // whose boxes reach each bin. build() skips the parts whose box misses a cell's, and heightAt()
+  // (three calls per piece edge) looks at its bin's parts only; both give what testing every part
+  // gives, since a part's domain within the grown region lies in its box.
+  static constexpr int kPartBins = 16;
+  static constexpr double kPartMargin = 1e-6;  // mm
+  struct PartIndex {
+    Vec2d lo{0, 0}, hi{0, 0}, inv{0, 0};         // the grown region's box; bins per mm
+    std::vector<Vec2d> box_lo, box_hi;           // per part (lo.x > hi.x: it misses the region)
+    std::vector<uint32_t> start, list;           // bin b's parts: list[start[b] .. start[b + 1])
+  };
+  std::vector<PartIndex> part_index_;  // per groove of grooves_ (empty for a plain one)
+  bool parts_indexed_ = false;
+  void indexParts(const Poly& region);
+  static int partBin(const PartIndex& ix, double v, int axis);
+  const Groove* partOf(size_t gi, Vec2d p) const;
   // Shadow polygons per (piece, light key): [begin, end) in cache_polys_, begin < 0 if not yet.
   mutable size_t cache_keys_ = 0;
   mutable std::vector<std::pair<int, int>> cache_range_;

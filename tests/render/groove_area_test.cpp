@@ -650,6 +650,62 @@ TEST(GrooveArea, BendsOfACurveFollowTheClosestPointOnThePath) {
   }
 }
 
+// A chain of bends has tens to hundreds of parts; Surface finds the part that holds a point through a grid
+// of the parts' boxes over its region (heightAt, and the cells of build). Over a small region and
+// over a large one (other bins, other boxes) it gives the same height to the last bit, inside the
+// small region, just outside it (1e-9 mm, where the walls are looked for) and far outside (every
+// part tried), and that height is the explicit geometry's within the bends' tolerance.
+TEST(GrooveArea, TheGridOfPartsFindsThePartThatHoldsAPoint) {
+  const ScratchPath path = ScratchPath::bezier({{-2, -1}, {0.35, 0.3}, {-0.35, 0.3}, {2, -1}});
+  const PathPoint pp = path.closest(Vec2f(0, 0));
+  std::vector<ScratchPath::Corner> bends;
+  std::pair<double, double> span;
+  const double tol = 2e-3;
+  ASSERT_TRUE(path.bendsAround(double(pp.s), {0, 0}, 0.3, 0.5 * tol, 0.0, 0.0, 12, M_PI, bends, span));
+  std::vector<Groove> legs_of;
+  for (size_t j = 0; j <= bends.size(); ++j) {
+    const ScratchPath::Corner& k = bends[j == 0 ? 0 : j - 1];
+    const Vec2d t = j == 0 ? k.t_in : k.t_out;
+    Groove g = along(t, 0, 3);
+    g.t0 = -(t.x * k.p.x + t.y * k.p.y);
+    g.b0 = -(g.bdir.x * k.p.x + g.bdir.y * k.p.y);
+    auto at = [&](Vec2d q) { return (q.x - k.p.x) * t.x + (q.y - k.p.y) * t.y; };
+    g.t_lo = j == 0 ? at(path.pointAt(span.first)) : 0;
+    g.t_hi = j == 0 ? 0 : at(j < bends.size() ? bends[j].p : path.pointAt(span.second));
+    legs_of.push_back(g);
+  }
+  std::vector<Groove> parts;
+  ASSERT_TRUE(chainParts(legs_of, 15 * M_PI / 180, rect(-0.3, -0.3, 0.3, 0.3), parts));
+  ASSERT_GT(parts.size(), 20u);
+  Groove g;
+  g.parts = &parts;
+  g.id = 3;
+  Surface small, large;
+  const Poly small_region = rect(-0.04, -0.03, 0.05, 0.06);
+  ASSERT_TRUE(small.build(small_region, {g}));
+  ASSERT_TRUE(large.build(rect(-0.2, -0.2, 0.2, 0.2), {g}));
+  double worst = 0;
+  int n = 0, differ = 0;
+  auto check = [&](Vec2d p) {
+    const double hs = small.heightAt(p), hl = large.heightAt(p);
+    differ += hs != hl;
+    worst = std::max(worst, std::fabs(hs - profileAt(double(path.closest(Vec2f(float(p.x), float(p.y))).offset))));
+    ++n;
+  };
+  for (int j = 0; j <= 60; ++j)
+    for (int i = 0; i <= 60; ++i) check(Vec2d(-0.15 + 0.3 * (i + 0.37) / 61, -0.15 + 0.3 * (j + 0.61) / 61));
+  // Along the small region's edges, 1e-9 mm outside.
+  for (int k = 0; k < small_region.n; ++k) {
+    const Vec2d a = small_region.v[size_t(k)], b = small_region.v[size_t((k + 1) % small_region.n)];
+    const Vec2d t = b - a, out = Vec2d(t.y, -t.x) * (1e-9 / std::hypot(t.x, t.y));
+    for (int i = 0; i < 50; ++i) check(a + t * ((i + 0.5) / 50) + out);
+  }
+  std::printf("[          ] %zu parts, %d points: %d heights differ, off the explicit geometry by at most %.2e mm\n",
+              parts.size(), n, differ, worst);
+  EXPECT_EQ(differ, 0);
+  EXPECT_LT(worst, 0.4 * tol);
+}
+
 // A path that passes the region twice, with its vertices far outside it: a loop that crosses
 // itself at 40 and 90 degrees, a hairpin whose legs' pile-ups overlap (0.11 mm apart, each 0.14
 // mm wide) and one whose legs are 3 degrees apart. The surface of passParts is the explicit

@@ -347,7 +347,12 @@ void Surface::indexParts(const Poly& region) {
         if (pass == 0) {
           const Groove& part = (*g.parts)[q];
           Poly d = grown;
-          for (int k = 0; k < part.n_dom && !d.empty(); ++k) d = clip(d, part.dom[k].a, part.dom[k].c);
+          // Each domain line moved out by the margin: a domain of no width (two lines that meet
+          // along their length) still has a box, where clipping a cell to it can leave a sliver.
+          for (int k = 0; k < part.n_dom && !d.empty(); ++k) {
+            const HalfPlane& h = part.dom[k];
+            d = clip(d, h.a, h.c - kPartMargin * std::hypot(h.a.x, h.a.y));
+          }
           lo = Vec2d(1e300, 1e300);
           hi = Vec2d(-1e300, -1e300);
           if (d.empty()) continue;

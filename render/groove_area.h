@@ -282,8 +282,8 @@ class Surface {
   std::vector<Wall> walls_;
   std::vector<Groove> grooves_;
   // The parts of a groove made of parts (a chain of bends holds hundreds) that can hold a point
-  // of the region: each part's domain clipped to the region grown by kPartMargin, as a box grown
-  // by it too, and a kPartBins x kPartBins grid over the grown region listing, in order, the parts
+  // of the region: each part's domain, its lines moved out by kPartMargin, clipped to the region
+  // grown by it, as a box grown by it too, and a kPartBins x kPartBins grid over the grown region listing, in order, the parts
   // whose boxes reach each bin. build() skips the parts whose box misses a cell's, and heightAt()
   // (three calls per piece edge) looks at its bin's parts only; both give what testing every part
   // gives, since a part's domain within the grown region lies in its box.

@@ -328,7 +328,7 @@ void Surface::indexParts(const Poly& region) {
     ix.box_lo.clear();
     ix.box_hi.clear();
     const Groove& g = grooves_[gi];
-    if (!g.parts) continue;
+    if (!g.parts || g.parts->size() < kPartsIndexed) continue;
     ix.lo = rlo;
     ix.hi = rhi;
     ix.inv = Vec2d(kPartBins / std::max(rhi.x - rlo.x, 1e-300), kPartBins / std::max(rhi.y - rlo.y, 1e-300));
@@ -391,6 +391,7 @@ const Groove* Surface::partOf(size_t gi, Vec2d p) const {
   const Groove& g = grooves_[gi];
   if (!parts_indexed_) return partAt(g, p);
   const PartIndex& ix = part_index_[gi];
+  if (ix.box_lo.size() != g.parts->size()) return partAt(g, p);  // (few parts: not indexed)
   // Outside the grown region (a point the surface was not built for): every part.
   if (!(p.x >= ix.lo.x && p.x <= ix.hi.x && p.y >= ix.lo.y && p.y <= ix.hi.y)) return partAt(g, p);
   const size_t b = size_t(partBin(ix, p.y, 1) * kPartBins + partBin(ix, p.x, 0));
@@ -824,18 +825,19 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
     // A corner's groove: each part over the part of the cell within its domain.
     const size_t np = g0.parts ? g0.parts->size() : 1;
     const PartIndex& ix = part_index_[gi];
+    const bool indexed = g0.parts && ix.box_lo.size() == np;
     // (A part whose domain misses the region takes no cell.)
-    auto misses = [&](size_t q) { return g0.parts && !(ix.box_lo[q].x <= ix.box_hi[q].x); };
+    auto misses = [&](size_t q) { return indexed && !(ix.box_lo[q].x <= ix.box_hi[q].x); };
     if (part_zones.size() < np) part_zones.resize(np);
     for (size_t q = 0; q < np; ++q)
       if (!misses(q)) zonesOf(g0.parts ? (*g0.parts)[q] : g0, part_zones[q]);
     next.clear();
     for (const Cell& c : cells) {
       Vec2d clo(1e300, 1e300), chi(-1e300, -1e300);
-      if (g0.parts) c.poly.extend(clo, chi);
+      if (indexed) c.poly.extend(clo, chi);
       for (size_t q = 0; q < np; ++q) {
         // A part whose box misses the cell's: their intersection is empty.
-        if (g0.parts && !(ix.box_lo[q].x <= chi.x && clo.x <= ix.box_hi[q].x && ix.box_lo[q].y <= chi.y &&
+        if (indexed && !(ix.box_lo[q].x <= chi.x && clo.x <= ix.box_hi[q].x && ix.box_lo[q].y <= chi.y &&
                           clo.y <= ix.box_hi[q].y))
           continue;
         const Groove& g = g0.parts ? (*g0.parts)[q] : g0;

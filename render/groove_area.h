@@ -203,6 +203,9 @@ class Surface {
   static constexpr size_t kMaxPieces = 1200;
   // At most this many grooves per surface (the callers keep the nearest past it).
   static constexpr size_t kMaxGrooves = 8;
+  // A groove of at least this many parts (a chain of bends) has them found through a grid of their
+  // boxes (below); fewer are tried in turn, which costs less than the grid.
+  static constexpr size_t kPartsIndexed = 32;
 
   // Cuts `region` (convex, counter-clockwise) into pieces. False when there are more than 8
   // grooves, or the pieces of the surface, or those of its walls, would exceed kMaxPieces (the

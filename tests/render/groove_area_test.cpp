@@ -660,8 +660,8 @@ TEST(GrooveArea, TheGridOfPartsFindsThePartThatHoldsAPoint) {
   const PathPoint pp = path.closest(Vec2f(0, 0));
   std::vector<ScratchPath::Corner> bends;
   std::pair<double, double> span;
-  const double tol = 2e-3;
-  ASSERT_TRUE(path.bendsAround(double(pp.s), {0, 0}, 0.3, 0.5 * tol, 0.0, 0.0, 12, M_PI, bends, span));
+  const double tol = 5e-4;
+  ASSERT_TRUE(path.bendsAround(double(pp.s), {0, 0}, 0.3, 0.5 * tol, 0.0, 0.0, 16, M_PI, bends, span));
   std::vector<Groove> legs_of;
   for (size_t j = 0; j <= bends.size(); ++j) {
     const ScratchPath::Corner& k = bends[j == 0 ? 0 : j - 1];
@@ -676,7 +676,7 @@ TEST(GrooveArea, TheGridOfPartsFindsThePartThatHoldsAPoint) {
   }
   std::vector<Groove> parts;
   ASSERT_TRUE(chainParts(legs_of, 15 * M_PI / 180, rect(-0.3, -0.3, 0.3, 0.3), parts));
-  ASSERT_GT(parts.size(), 20u);
+  ASSERT_GE(parts.size(), Surface::kPartsIndexed);
   Groove g;
   g.parts = &parts;
   g.id = 3;

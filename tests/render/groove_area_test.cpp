@@ -593,6 +593,26 @@ TEST(GrooveArea, AChainOfCornersFollowsTheClosestPointOnThePath) {
   EXPECT_TRUE(parts.empty());
 }
 
+// The legs between a path's bends over the window `span` (ScratchPath::bendsAround), as kProfile
+// grooves of id 3: each leg's positions are the projections of the path's points on it (the
+// integrator's chainGroove with chords).
+std::vector<Groove> legsOfBends(const ScratchPath& path, const std::vector<ScratchPath::Corner>& bends,
+                                std::pair<double, double> span) {
+  std::vector<Groove> legs;
+  for (size_t j = 0; j <= bends.size(); ++j) {
+    const ScratchPath::Corner& k = bends[j == 0 ? 0 : j - 1];
+    const Vec2d t = j == 0 ? k.t_in : k.t_out;
+    Groove g = along(t, 0, 3);
+    g.t0 = -(t.x * k.p.x + t.y * k.p.y);
+    g.b0 = -(g.bdir.x * k.p.x + g.bdir.y * k.p.y);
+    auto at = [&](Vec2d q) { return (q.x - k.p.x) * t.x + (q.y - k.p.y) * t.y; };
+    g.t_lo = j == 0 ? at(path.pointAt(span.first)) : 0;
+    g.t_hi = j == 0 ? 0 : at(j < bends.size() ? bends[j].p : path.pointAt(span.second));
+    legs.push_back(g);
+  }
+  return legs;
+}
+
 // Curves flattened into turns below a corner's (ScratchPath::bendsAround): a tight U-turn of a
 // cubic, a small loop that crosses itself and a quarter circle 0.1 mm in radius. Their bends, as
 // legs between the kept vertices (positions along a leg are the projections of the path's points:
@@ -619,18 +639,7 @@ TEST(GrooveArea, BendsOfACurveFollowTheClosestPointOnThePath) {
     std::vector<ScratchPath::Corner> bends;
     std::pair<double, double> span;
     ASSERT_TRUE(path.bendsAround(double(pp.s), {0, 0}, 0.3, 0.5 * tol, 0.0, 0.0, 12, M_PI, bends, span)) << c.name;
-    std::vector<Groove> legs_of;
-    for (size_t j = 0; j <= bends.size(); ++j) {
-      const ScratchPath::Corner& k = bends[j == 0 ? 0 : j - 1];
-      const Vec2d t = j == 0 ? k.t_in : k.t_out;
-      Groove g = along(t, 0, 3);
-      g.t0 = -(t.x * k.p.x + t.y * k.p.y);
-      g.b0 = -(g.bdir.x * k.p.x + g.bdir.y * k.p.y);
-      auto at = [&](Vec2d q) { return (q.x - k.p.x) * t.x + (q.y - k.p.y) * t.y; };
-      g.t_lo = j == 0 ? at(path.pointAt(span.first)) : 0;
-      g.t_hi = j == 0 ? 0 : at(j < bends.size() ? bends[j].p : path.pointAt(span.second));
-      legs_of.push_back(g);
-    }
+    const std::vector<Groove> legs_of = legsOfBends(path, bends, span);
     std::vector<Groove> parts;
     ASSERT_TRUE(chainParts(legs_of, 15 * M_PI / 180, region, parts)) << c.name << ", " << bends.size() << " bends";
     Groove g;
@@ -662,18 +671,7 @@ TEST(GrooveArea, TheGridOfPartsFindsThePartThatHoldsAPoint) {
   std::pair<double, double> span;
   const double tol = 5e-4;
   ASSERT_TRUE(path.bendsAround(double(pp.s), {0, 0}, 0.3, 0.5 * tol, 0.0, 0.0, 16, M_PI, bends, span));
-  std::vector<Groove> legs_of;
-  for (size_t j = 0; j <= bends.size(); ++j) {
-    const ScratchPath::Corner& k = bends[j == 0 ? 0 : j - 1];
-    const Vec2d t = j == 0 ? k.t_in : k.t_out;
-    Groove g = along(t, 0, 3);
-    g.t0 = -(t.x * k.p.x + t.y * k.p.y);
-    g.b0 = -(g.bdir.x * k.p.x + g.bdir.y * k.p.y);
-    auto at = [&](Vec2d q) { return (q.x - k.p.x) * t.x + (q.y - k.p.y) * t.y; };
-    g.t_lo = j == 0 ? at(path.pointAt(span.first)) : 0;
-    g.t_hi = j == 0 ? 0 : at(j < bends.size() ? bends[j].p : path.pointAt(span.second));
-    legs_of.push_back(g);
-  }
+  const std::vector<Groove> legs_of = legsOfBends(path, bends, span);
   std::vector<Groove> parts;
   ASSERT_TRUE(chainParts(legs_of, 15 * M_PI / 180, rect(-0.3, -0.3, 0.3, 0.3), parts));
   ASSERT_GE(parts.size(), Surface::kPartsIndexed);

@@ -391,7 +391,7 @@ const Groove* Surface::partOf(size_t gi, Vec2d p) const {
   const Groove& g = grooves_[gi];
   if (!parts_indexed_) return partAt(g, p);
   const PartIndex& ix = part_index_[gi];
-  if (ix.box_lo.size() != g.parts->size()) return partAt(g, p);  // (few parts: not indexed)
+  if (ix.box_lo.empty()) return partAt(g, p);  // (few parts: not indexed)
   // Outside the grown region (a point the surface was not built for): every part.
   if (!(p.x >= ix.lo.x && p.x <= ix.hi.x && p.y >= ix.lo.y && p.y <= ix.hi.y)) return partAt(g, p);
   const size_t b = size_t(partBin(ix, p.y, 1) * kPartBins + partBin(ix, p.x, 0));
@@ -825,7 +825,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
     // A corner's groove: each part over the part of the cell within its domain.
     const size_t np = g0.parts ? g0.parts->size() : 1;
     const PartIndex& ix = part_index_[gi];
-    const bool indexed = g0.parts && ix.box_lo.size() == np;
+    const bool indexed = g0.parts && !ix.box_lo.empty();
     // (A part whose domain misses the region takes no cell.)
     auto misses = [&](size_t q) { return indexed && !(ix.box_lo[q].x <= ix.box_hi[q].x); };
     if (part_zones.size() < np) part_zones.resize(np);

@@ -300,13 +300,17 @@ double grooveHeight(const Groove& g, Vec2d p) {
   return q1.x > q0.x ? r * (q0.y + (q1.y - q0.y) * (u - q0.x) / (q1.x - q0.x)) : r * q0.y;
 }
 
+// Whether part q's domain holds p.
+bool inDomain(const Groove& q, Vec2d p) {
+  for (int k = 0; k < q.n_dom; ++k)
+    if (!q.dom[k].holds(p)) return false;
+  return true;
+}
+
 // The part of a corner's groove whose domain holds p (the first, on a boundary), or null.
 const Groove* partAt(const Groove& g, Vec2d p) {
-  for (const Groove& q : *g.parts) {
-    bool in = true;
-    for (int k = 0; k < q.n_dom && in; ++k) in = q.dom[k].holds(p);
-    if (in) return &q;
-  }
+  for (const Groove& q : *g.parts)
+    if (inDomain(q, p)) return &q;
   return nullptr;
 }
 
@@ -397,11 +401,8 @@ const Groove* Surface::partOf(size_t gi, Vec2d p) const {
   const size_t b = size_t(partBin(ix, p.y, 1) * kPartBins + partBin(ix, p.x, 0));
   for (uint32_t k = ix.start[b]; k < ix.start[b + 1]; ++k) {
     const size_t q = ix.list[k];
-    if (p.x < ix.box_lo[q].x || p.x > ix.box_hi[q].x || p.y < ix.box_lo[q].y || p.y > ix.box_hi[q].y) continue;
-    const Groove& part = (*g.parts)[q];
-    bool in = true;
-    for (int j = 0; j < part.n_dom && in; ++j) in = part.dom[j].holds(p);
-    if (in) return &part;
+    if (!BBox(ix.box_lo[q], ix.box_hi[q]).overlaps(BBox(p, p))) continue;
+    if (inDomain((*g.parts)[q], p)) return &(*g.parts)[q];
   }
   return nullptr;
 }
@@ -837,9 +838,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
       if (indexed) c.poly.extend(clo, chi);
       for (size_t q = 0; q < np; ++q) {
         // A part whose box misses the cell's: their intersection is empty.
-        if (indexed && !(ix.box_lo[q].x <= chi.x && clo.x <= ix.box_hi[q].x && ix.box_lo[q].y <= chi.y &&
-                          clo.y <= ix.box_hi[q].y))
-          continue;
+        if (indexed && !BBox(ix.box_lo[q], ix.box_hi[q]).overlaps(BBox(clo, chi))) continue;
         const Groove& g = g0.parts ? (*g0.parts)[q] : g0;
         const std::vector<Zone>& zones = part_zones[q];
         thread_local Poly clipped;

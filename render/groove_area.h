@@ -286,10 +286,11 @@ class Surface {
   std::vector<Groove> grooves_;
   // The parts of a groove made of parts (a chain of bends holds hundreds) that can hold a point
   // of the region: each part's domain, its lines moved out by kPartMargin, clipped to the region
-  // grown by it, as a box grown by it too, and a kPartBins x kPartBins grid over the grown region listing, in order, the parts
-  // whose boxes reach each bin. build() skips the parts whose box misses a cell's, and heightAt()
-  // (three calls per piece edge) looks at its bin's parts only; both give what testing every part
-  // gives, since a part's domain within the grown region lies in its box.
+  // grown by it, as a box grown by it too, and a kPartBins x kPartBins grid over the grown region
+  // listing, in order, the parts whose boxes reach each bin. build() skips the parts whose box
+  // misses a cell's, and heightAt() (three calls per piece edge) looks at its bin's parts only;
+  // both give what testing every part gives, since a part's domain within the grown region lies
+  // in its box.
   static constexpr int kPartBins = 16;
   static constexpr double kPartMargin = 1e-6;  // mm
   struct PartIndex {
@@ -297,8 +298,9 @@ class Surface {
     std::vector<Vec2d> box_lo, box_hi;           // per part (lo.x > hi.x: it misses the region)
     std::vector<uint32_t> start, list;           // bin b's parts: list[start[b] .. start[b + 1])
   };
-  std::vector<PartIndex> part_index_;  // per groove of grooves_ (empty for a plain one)
-  bool parts_indexed_ = false;
+  // Per groove of grooves_; no boxes for a plain groove or one of fewer than kPartsIndexed parts.
+  std::vector<PartIndex> part_index_;
+  bool parts_indexed_ = false;  // part_index_ is for grooves_ (build() may stop before it)
   void indexParts(const Poly& region);
   static int partBin(const PartIndex& ix, double v, int axis);
   const Groove* partOf(size_t gi, Vec2d p) const;

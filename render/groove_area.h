@@ -142,6 +142,11 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
 // by more than kMaxCornerTurn, or the partition needs more than kMaxChainCells cells or a cell
 // more than Groove::kMaxDom half-planes.
 constexpr size_t kMaxChainCells = 400;
+// No cell of the partition is narrower than kThinCut (mm) across one of its cuts: a line that
+// passes within it of a cell's far side leaves the cell whole (a tenth of a nanometre, far below
+// anything a footprint resolves, and above the rounding of lines computed in different frames over
+// a region a few millimetres across).
+constexpr double kThinCut = 1e-7;
 //
 // run_starts: the legs (in increasing order) where another pass of the path starts, with no
 // corner between it and the leg before it (a loop whose passes near the footprint are apart along

@@ -614,6 +614,7 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
   // the surface's pieces, and on the fuzzer's p1_11 fins 0.02 mm tall and picometres thin,
   // whose walls stood in the light's way (docs/grooves.md, "Bends").
   auto cut = [&](const Cell& c, const HalfPlane& h, Cell& out) {
+    const double lh = std::hypot(h.a.x, h.a.y);
     double beyond = -std::numeric_limits<double>::infinity(), within = beyond;
     for (int j = 0; j < c.poly.n; ++j) {
       const double f = h.a.x * c.poly.v[size_t(j)].x + h.a.y * c.poly.v[size_t(j)].y + h.c;
@@ -622,7 +623,7 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
     }
     // (A cell thin across h as a whole goes to the side that holds more of it, so that h and
     // flip(h) never both keep it.)
-    if (std::min(beyond, within) <= kThinCut * std::hypot(h.a.x, h.a.y)) {
+    if (std::min(beyond, within) <= kThinCut * lh) {
       if (beyond < within) {
         out = c;
         return true;
@@ -638,7 +639,6 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
     // (Lines met again, such as a leg's end normal that is also its corner's first sector's
     // edge, are kept once.)
     bool again = false;
-    const double lh = std::hypot(h.a.x, h.a.y);
     for (int i = 0; i < out.nh && !again; ++i) {
       const HalfPlane& o = out.h[i];
       const double lo = std::hypot(o.a.x, o.a.y);

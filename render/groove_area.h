@@ -167,6 +167,16 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
 // composite is either.
 bool passParts(const Groove& a, const Groove& b, std::vector<Groove>& out_parts);
 
+// The same where each pass is in pieces along its line (a[0..na), b[0..nb), in any order: the
+// integrator's scaleSegments, where a cross-section's scale is far from linear over the region,
+// each piece with its own t0, rho, profile and t range on the one line of its pass). Within its
+// pass's two wedges each piece holds over its own stretch of the line, between the midpoints of
+// the gaps to its neighbours' t ranges (the first and last unbounded beyond them), so a point
+// takes the piece of the nearer pass at its closest point, as Scratch::height does. With one
+// piece each it gives passParts' parts, in the same order. False (nothing appended) as there,
+// or where a pass has no pieces or a piece's line is not its pass's first piece's.
+bool passPieces(const Groove* a, size_t na, const Groove* b, size_t nb, std::vector<Groove>& out_parts);
+
 // Whether the centre lines of grooves a and b (each its line b = 0 over [t_lo, t_hi]; not parts)
 // come within w of each other inside the disc of radius r about the origin: where two passes of one
 // path, each of half-width w / 2 at most, do not, their grooves do not overlap there, and their

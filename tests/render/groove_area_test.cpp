@@ -828,6 +828,92 @@ TEST(GrooveArea, APathsTwoPassesEachHoldWhereTheyAreTheNearer) {
   EXPECT_TRUE(parts.empty());
 }
 
+// The same where each pass is in pieces along its line (the integrator's scaleSegments, within a
+// force fade): a path that doubles back, its legs 1 degree apart and 0.02 mm apart at the centre,
+// each leg in three pieces of scale 0.6, 1 and 1.4 (given in a shuffled order). passPieces gives
+// each point the piece of the nearer pass over its stretch of the line, to rounding; the pieces
+// composited as separate grooves (what the renderer did until 2026-11-29) stand the far pass's
+// walls where the nearer one cuts them away. With one piece each it is passParts.
+TEST(GrooveArea, APathsTwoPassesInPiecesEachHoldWhereTheyAreTheNearer) {
+  std::vector<Vec2d> scaled[3];
+  const double scale[3] = {0.6, 1.0, 1.4};
+  for (int k = 0; k < 3; ++k)
+    for (const Vec2d& q : kProfile) scaled[k].push_back(q * scale[k]);
+  // Pass a along dirOf(0.5) through (0, 0.01), b back along dirOf(179.5) through (0, -0.01);
+  // pieces cut at -0.05 and 0.06 mm along each.
+  auto pieces = [&](Vec2d p, Vec2d t) {
+    std::vector<Groove> out;
+    const double cuts[4] = {-1e30, -0.05, 0.06, 1e30};
+    for (int k : {2, 0, 1}) {
+      Groove g = along(t, 0, 7);
+      g.b0 = -(g.bdir.x * p.x + g.bdir.y * p.y);
+      g.t0 = 0.3 * k - (t.x * p.x + t.y * p.y);  // each piece its own origin along the line
+      g.t_lo = cuts[k] + 0.3 * k;
+      g.t_hi = cuts[k + 1] + 0.3 * k;
+      g.pts = &scaled[k];
+      out.push_back(g);
+    }
+    return out;
+  };
+  const std::vector<Groove> a = pieces({0, 0.01}, dirOf(0.5)), b = pieces({0, -0.01}, dirOf(179.5));
+  std::vector<Groove> parts;
+  ASSERT_TRUE(passPieces(a.data(), a.size(), b.data(), b.size(), parts));
+  ASSERT_EQ(parts.size(), 12u);
+  Groove g;
+  g.parts = &parts;
+  g.id = 7;
+  Surface s, composite;
+  const Poly region = rect(-0.2, -0.2, 0.2, 0.2);
+  ASSERT_TRUE(s.build(region, {g}));
+  std::vector<Groove> all = a;
+  all.insert(all.end(), b.begin(), b.end());
+  ASSERT_TRUE(composite.build(region, all));
+  // The explicit geometry's height: the nearer pass, and on it the piece whose stretch holds p.
+  auto want = [&](Vec2d p) {
+    const std::vector<Groove>& pass =
+        std::fabs(a[0].b0 + dot(a[0].bdir, p)) <= std::fabs(b[0].b0 + dot(b[0].bdir, p)) ? a : b;
+    for (const Groove& q : pass) {
+      const double t = q.t0 + dot(q.tdir, p);
+      if (t >= q.t_lo && t <= q.t_hi) return grooveHeight(q, p);
+    }
+    return std::numeric_limits<double>::quiet_NaN();
+  };
+  double worst = 0, worst_composite = 0;
+  for (int j = 0; j <= 100; ++j)
+    for (int i = 0; i <= 100; ++i) {
+      const Vec2d p(-0.19 + 0.38 * (i + 0.31) / 101, -0.19 + 0.38 * (j + 0.57) / 101);
+      const int k = pieceAt(s, p), kc = pieceAt(composite, p);
+      ASSERT_GE(k, 0) << p.x << ", " << p.y;
+      ASSERT_GE(kc, 0) << p.x << ", " << p.y;
+      worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want(p)));
+      worst_composite = std::max(worst_composite, std::fabs(composite.pieces()[size_t(kc)].plane.at(p) - want(p)));
+    }
+  std::printf("[          ] height off by at most %.2e mm (pieces composited %.2e)\n", worst, worst_composite);
+  EXPECT_LT(worst, 1e-9);
+  EXPECT_GT(worst_composite, 5e-3);
+  double area = 0;
+  for (const Piece& pc : s.pieces()) area += pc.wall ? 0.0 : pc.poly.area();
+  EXPECT_NEAR(area, 0.16, 1e-9);
+  // One piece each: passParts' parts, domains and all.
+  std::vector<Groove> one, whole;
+  ASSERT_TRUE(passPieces(&a[1], 1, &b[1], 1, one));
+  ASSERT_TRUE(passParts(a[1], b[1], whole));
+  ASSERT_EQ(one.size(), whole.size());
+  for (size_t k = 0; k < one.size(); ++k) {
+    ASSERT_EQ(one[k].n_dom, whole[k].n_dom);
+    for (int d = 0; d < one[k].n_dom; ++d) {
+      EXPECT_EQ(one[k].dom[d].a.x, whole[k].dom[d].a.x);
+      EXPECT_EQ(one[k].dom[d].c, whole[k].dom[d].c);
+    }
+  }
+  // Pieces of a pass off its line, or a pass without pieces: refused.
+  std::vector<Groove> off = a;
+  off[1].b0 += 1e-3;
+  EXPECT_FALSE(passPieces(off.data(), off.size(), b.data(), b.size(), parts));
+  EXPECT_FALSE(passPieces(a.data(), 0, b.data(), b.size(), parts));
+  EXPECT_TRUE(parts.empty());
+}
+
 // centreLinesWithin (the renderer's test for whether two passes of one path need one partition by
 // nearness or can be composited): by hand, then against the least distance between points spaced
 // 5 * 10^-4 mm along both centre lines within the disc, for random lines, ranges and widths.

@@ -118,8 +118,13 @@ struct Groove {
 // cos(half the sector) so that neighbouring sectors and the legs meet without a step (the cap
 // lies within 1 - cos(max_sector / 2) of the round one in its radii). Appends the parts to `out_parts`
 // (cleared first). False (nothing appended) for a turn of less than 1e-6 rad or more than
-// kMaxCornerTurn, where the legs' bisector degenerates.
-constexpr double kMaxCornerTurn = 175.0 * 3.14159265358979323846 / 180.0;
+// kMaxCornerTurn, where the legs' bisector degenerates: its normal, the sum of the legs'
+// directions, is 2 cos(turn / 2) long, 1.7e-3 at 179.9 degrees, so that the legs' directions,
+// rounded to float in the integrator's frames, turn it by up to about 1e-4 rad (on the inner side,
+// where both legs give nearly the same height). 175 degrees until 2026-11-29: a path doubling back
+// by 176 to 179 degrees ran straight past its vertex, its tip 0.3-0.4% of pixels >= 10 against
+// geometry at 512 spp where now under 0.1% (docs/grooves.md, "Corners").
+constexpr double kMaxCornerTurn = 179.9 * 3.14159265358979323846 / 180.0;
 bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::vector<Groove>& out_parts);
 
 // The parts of a groove whose path turns at several corners near the footprint (a hook, a U-turn

@@ -230,6 +230,23 @@ LAYOUTS["zigzag"] = """
     hardness_hv: 30
 """
 
+# A scratch given point by point that doubles back: a polyline turning 179 degrees, its two 3 mm
+# legs side by side, 0.017 mm apart per mm from the vertex, so that their 0.19 mm wide grooves
+# overlap over the whole view (seen at 1.5 degrees, the vertex 0.6 mm right of the centre). Each
+# point takes the cross-section of the nearer leg; within 2 mm of the path's ends (the default
+# fade) the force, and so the scale, changes along each leg (docs/grooves.md, "A path that comes
+# back").
+LAYOUTS["doubling"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5, 0.5]
+    path_mm: [-2.4, -0.05, 0.6, -0.05, -2.399543, 0.002357]
+    force_kg: 2
+    hardness_hv: 30
+"""
+
 # A scratch whose path comes back across itself (docs/grooves.md, "A path that comes back"): one
 # cubic curve that loops, crossing its own way at 78 degrees 0.27 mm below the loop's top, where
 # the two passes' grooves overlap (seen at 3 degrees).

@@ -1810,6 +1810,43 @@ class Tracer {
     thread_local std::vector<char> pieced;
     pieced.resize(grooves.size());
     for (size_t i = 0; i < grooves.size(); ++i) pieced[i] = seg_at[i + 1] - seg_at[i] != 1;
+    // Three or more straight, whole passes of one path (a path zigzagging back and forth past the
+    // footprint): one partition (chainParts, each pass a run of one leg), each pass where it is the
+    // nearest. (Pairs of them composited with the rest, a zigzag whose three legs lie 0.1 mm apart
+    // gave 0.68% of pixels >= 10 against geometry where the sections, which split any number of
+    // passes, took it, and 8.4% where the polygons did.)
+    thread_local std::vector<size_t> many;
+    thread_local std::vector<std::vector<ga::Groove>> many_parts;
+    thread_local std::vector<ga::Groove> many_legs;
+    thread_local std::vector<size_t> many_starts;
+    if (many_parts.size() < grooves.size()) many_parts.resize(grooves.size());  // (no reallocation below)
+    size_t nmany = 0;
+    for (size_t a = 0; a < grooves.size(); ++a) {
+      if (!single(a)) continue;
+      many.assign(1, a);
+      for (size_t b = a + 1; b < grooves.size(); ++b)
+        if (single(b) && near[size_t(grooves[b].id)].sc == near[size_t(grooves[a].id)].sc) many.push_back(b);
+      if (many.size() < 3) continue;
+      many_legs.clear();
+      many_starts.clear();
+      for (size_t k = 0; k < many.size(); ++k) {
+        if (k) many_starts.push_back(k);
+        many_legs.push_back(grooves[many[k]]);
+      }
+      if (!ga::chainParts(many_legs, kCornerSector, bound, many_parts[nmany], many_starts)) continue;
+      grooves[a].parts = &many_parts[nmany++];
+      segs[seg_at[a]] = grooves[a];
+      for (size_t k = many.size() - 1; k >= 1; --k) {  // (the others, last first)
+        const size_t b = many[k];
+        near_mm[a] = std::min(near_mm[a], near_mm[b]);
+        grooves.erase(grooves.begin() + long(b));
+        near_mm.erase(near_mm.begin() + long(b));
+        pieced.erase(pieced.begin() + long(b));
+        segs.erase(segs.begin() + long(seg_at[b]));
+        seg_at.erase(seg_at.begin() + long(b) + 1);
+        for (size_t m = b + 1; m < seg_at.size(); ++m) --seg_at[m];
+      }
+    }
     for (size_t a = 0; a < grooves.size(); ++a) {
       if (grooves[a].parts) continue;  // (a corner's groove)
       for (size_t b = a + 1; b < grooves.size(); ++b) {

@@ -247,6 +247,21 @@ LAYOUTS["doubling"] = """
     hardness_hv: 30
 """
 
+# A scratch given point by point that goes back and forth: three 10 mm legs 0.1 mm apart at the
+# centre (the middle one tilted by 0.57 degrees), turning by about 179.4 degrees 5 mm either side,
+# out of view (seen at 1.5 degrees). Their 0.19 mm wide grooves overlap; each point takes the
+# nearest leg's cross-section (docs/grooves.md, "A path that comes back").
+LAYOUTS["backforth"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5, 0.5]
+    path_mm: [-5, 0.1, 5, 0.1, -5, 0, 5, -0.1]
+    force_kg: 2
+    hardness_hv: 30
+"""
+
 # A scratch whose path comes back across itself (docs/grooves.md, "A path that comes back"): one
 # cubic curve that loops, crossing its own way at 78 degrees 0.27 mm below the loop's top, where
 # the two passes' grooves overlap (seen at 3 degrees).

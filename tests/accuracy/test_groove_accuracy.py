@@ -209,6 +209,15 @@ class GrooveAccuracy(unittest.TestCase):
         st = self.check("doubling", "bar", fov_deg=1.5)
         self.assertLess(st["pct_ge_10"], 0.3)
 
+    def test_backforth_bar(self):
+        """A scratch that goes back and forth past the view (groove_scenes.LAYOUTS["backforth"]:
+        three legs 0.1 mm apart, their grooves overlapping) under the bar light. Until 2026-11-29
+        the polygons split only two passes of one path by nearness and composited a third, which
+        showed where a footprint near enough both legs of a vertex went to them: 0.684% of pixels
+        >= 10 (mean dE 0.720), past the target; now 0.087% (0.391). Bounded at 0.3%."""
+        st = self.check("backforth", "bar", fov_deg=1.5)
+        self.assertLess(st["pct_ge_10"], 0.3)
+
     def test_loop_ring(self):
         """A scratch whose path loops back across itself (groove_scenes.LAYOUTS["loop"]: a cubic
         curve crossing its own way at 78 degrees, seen at 3 degrees) under the ring light. Each pass

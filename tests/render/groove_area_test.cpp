@@ -829,6 +829,40 @@ TEST(GrooveArea, APathsTwoPassesEachHoldWhereTheyAreTheNearer) {
   EXPECT_TRUE(parts.empty());
 }
 
+// Three passes of one path (a path going back and forth, its vertices far outside the region;
+// legs 0.11 mm apart at the centre, their pile-ups overlapping, the middle one tilted): chainParts
+// with each pass a run of one leg (as the integrator builds three or more straight passes) gives
+// the explicit geometry's surface to rounding; two passes split by passParts and the third
+// composited with them do not.
+TEST(GrooveArea, ThreePassesOfAPathAreOnePartition) {
+  auto pass = [](Vec2d p, Vec2d t) {
+    Groove g = along(t, 0, 7);
+    g.t0 = -(t.x * p.x + t.y * p.y);
+    g.b0 = -(g.bdir.x * p.x + g.bdir.y * p.y);
+    return g;
+  };
+  const Vec2d pa(0, 0.11), ta = dirOf(0), pb(0, 0), tb = dirOf(180.4), pc(0, -0.11), tc = dirOf(0.2);
+  const Groove a = pass(pa, ta), b = pass(pb, tb), c = pass(pc, tc);
+  std::vector<Groove> parts, pair;
+  const Poly region = rect(-0.2, -0.2, 0.2, 0.2);
+  ASSERT_TRUE(chainParts({a, b, c}, 15 * M_PI / 180, region, parts, {1, 2}));
+  ASSERT_TRUE(passParts(a, b, pair));
+  Groove g, ab;
+  g.parts = &parts;
+  ab.parts = &pair;
+  g.id = ab.id = 7;
+  Surface s, two;
+  ASSERT_TRUE(s.build(region, {g}));
+  ASSERT_TRUE(two.build(region, {ab, c}));
+  const ScratchPath path =
+      ScratchPath::polyline({pa - ta * 20, pa + ta * 20, pb - tb * 20, pb + tb * 20, pc - tc * 20, pc + tc * 20});
+  const double worst = offClosestProfile(s, path), worst_two = offClosestProfile(two, path);
+  std::printf("[          ] %zu parts: height off by at most %.2e mm (two split, the third composited: %.2e)\n",
+              parts.size(), worst, worst_two);
+  EXPECT_LT(worst, 1e-6);
+  EXPECT_GT(worst_two, 1e-3);
+}
+
 // The same where each pass is in pieces along its line (the integrator's scaleSegments, within a
 // force fade): a path that doubles back, its legs 1 degree apart and 0.02 mm apart at the centre,
 // each leg in three pieces of scale 0.6, 1 and 1.4 (given in a shuffled order). passPieces gives

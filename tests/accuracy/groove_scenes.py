@@ -262,6 +262,29 @@ LAYOUTS["backforth"] = """
     hardness_hv: 30
 """
 
+# The passes fuzzer's p3_18 (`scripts/fuzz-grooves --kind passes --seed 3`, layout 18): a cubic
+# hairpin whose tip 0.2 mm across flattens into eight corners of 12 to 17 degrees, beside a light
+# scratch, seen at 1 degree (docs/grooves.md, "Bends").
+LAYOUTS["tipcorners"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: bezier
+    center: [0.4979, 0.5124]
+    path_mm: [3.1362, -6.5670, -2.9804, 8.6298, -0.6126, -9.3468, 1.3603, 6.9155]
+    force_kg: 0.56
+    hardness_hv: 30
+    perturbation: 0.40
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: bezier
+    center: [0.5099, 0.5037]
+    path_mm: [-2.9265, 4.0712, 0.1844, -0.3918, 0.3068, -0.5674, 0.2190, -0.6286, 0.1312, -0.6898, 0.0089, -0.5142, -3.1021, 3.9489]
+    force_kg: 0.84
+    hardness_hv: 30
+"""
+
 # A scratch whose path comes back across itself (docs/grooves.md, "A path that comes back"): one
 # cubic curve that loops, crossing its own way at 78 degrees 0.27 mm below the loop's top, where
 # the two passes' grooves overlap (seen at 3 degrees).

@@ -218,6 +218,16 @@ class GrooveAccuracy(unittest.TestCase):
         st = self.check("backforth", "bar", fov_deg=1.5)
         self.assertLess(st["pct_ge_10"], 0.3)
 
+    def test_tipcorners_bar(self):
+        """A cubic hairpin whose tip flattens into corners (groove_scenes.LAYOUTS["tipcorners"], the
+        passes fuzzer's p3_18) under the bar light, seen at 1 degree. Until 2026-11-29 a pass with
+        corners was given its bends only where its path strayed from the tangent at its closest
+        point, though its groove is the corners' straight legs: the last leg ran straight on where
+        the path curves away, a glint on flat plate: 0.336% of pixels >= 10 (mean dE 0.442); now
+        0.076% (0.268). Bounded at 0.2%."""
+        st = self.check("tipcorners", "bar", fov_deg=1)
+        self.assertLess(st["pct_ge_10"], 0.2)
+
     def test_loop_ring(self):
         """A scratch whose path loops back across itself (groove_scenes.LAYOUTS["loop"]: a cubic
         curve crossing its own way at 78 degrees, seen at 3 degrees) under the ring light. Each pass

@@ -1812,10 +1812,16 @@ class Tracer {
       const ga::Groove &g = grooves[i], &q = segs[seg_at[i]];  // (one piece, and the groove itself)
       return q.pts == g.pts && q.t0 == g.t0 && q.rho == g.rho && q.t_lo == g.t_lo && q.t_hi == g.t_hi;
     };
-    // Whether groove i's pieces differ from its whole groove (the round with pieces is then tried).
-    thread_local std::vector<char> pieced;
-    pieced.resize(grooves.size());
-    for (size_t i = 0; i < grooves.size(); ++i) pieced[i] = seg_at[i + 1] - seg_at[i] != 1;
+    // Groove b joined to groove a: b and its pieces leave the lists (a's nearness takes b's).
+    auto drop = [&](size_t a, size_t b) {
+      const size_t nb = seg_at[b + 1] - seg_at[b];
+      near_mm[a] = std::min(near_mm[a], near_mm[b]);
+      grooves.erase(grooves.begin() + long(b));
+      near_mm.erase(near_mm.begin() + long(b));
+      segs.erase(segs.begin() + long(seg_at[b]), segs.begin() + long(seg_at[b + 1]));
+      seg_at.erase(seg_at.begin() + long(b) + 1);
+      for (size_t k = b + 1; k < seg_at.size(); ++k) seg_at[k] -= nb;
+    };
     // Three or more straight, whole passes of one path (a path zigzagging back and forth past the
     // footprint): one partition (chainParts, each pass a run of one leg), each pass where it is the
     // nearest. (Pairs of them composited with the rest, a zigzag whose three legs lie 0.1 mm apart
@@ -1842,16 +1848,7 @@ class Tracer {
       if (!ga::chainParts(many_legs, kCornerSector, bound, many_parts[nmany], many_starts)) continue;
       grooves[a].parts = &many_parts[nmany++];
       segs[seg_at[a]] = grooves[a];
-      for (size_t k = many.size() - 1; k >= 1; --k) {  // (the others, last first)
-        const size_t b = many[k];
-        near_mm[a] = std::min(near_mm[a], near_mm[b]);
-        grooves.erase(grooves.begin() + long(b));
-        near_mm.erase(near_mm.begin() + long(b));
-        pieced.erase(pieced.begin() + long(b));
-        segs.erase(segs.begin() + long(seg_at[b]));
-        seg_at.erase(seg_at.begin() + long(b) + 1);
-        for (size_t m = b + 1; m < seg_at.size(); ++m) --seg_at[m];
-      }
+      for (size_t k = many.size() - 1; k >= 1; --k) drop(a, many[k]);  // (the others, last first)
     }
     for (size_t a = 0; a < grooves.size(); ++a) {
       if (grooves[a].parts) continue;  // (a corner's groove)
@@ -1859,24 +1856,19 @@ class Tracer {
         if (grooves[b].parts || near[size_t(grooves[b].id)].sc != near[size_t(grooves[a].id)].sc) continue;
         if (!ga::passParts(grooves[a], grooves[b], pass_parts[npass])) continue;
         const bool in_pieces = !single(a) || !single(b);
-        const size_t na = seg_at[a + 1] - seg_at[a], nb = seg_at[b + 1] - seg_at[b];
-        if (in_pieces && !ga::passPieces(&segs[seg_at[a]], na, &segs[seg_at[b]], nb, pass_parts[npass + 1])) continue;
+        const size_t na = seg_at[a + 1] - seg_at[a];
+        if (in_pieces &&
+            !ga::passPieces(&segs[seg_at[a]], na, &segs[seg_at[b]], seg_at[b + 1] - seg_at[b], pass_parts[npass + 1]))
+          continue;
         grooves[a].parts = &pass_parts[npass];
         ga::Groove by_pieces = grooves[a];
         if (in_pieces) by_pieces.parts = &pass_parts[npass + 1];
         npass += in_pieces ? 2 : 1;
         // b's pieces go, a's become the one groove of both.
-        segs.erase(segs.begin() + long(seg_at[b]), segs.begin() + long(seg_at[b + 1]));
-        seg_at.erase(seg_at.begin() + long(b) + 1);
-        for (size_t k = b + 1; k < seg_at.size(); ++k) seg_at[k] -= nb;
+        drop(a, b);
         segs.erase(segs.begin() + long(seg_at[a]) + 1, segs.begin() + long(seg_at[a + 1]));
         for (size_t k = a + 1; k < seg_at.size(); ++k) seg_at[k] -= na - 1;
         segs[seg_at[a]] = by_pieces;
-        pieced[a] = in_pieces;
-        pieced.erase(pieced.begin() + long(b));
-        near_mm[a] = std::min(near_mm[a], near_mm[b]);
-        grooves.erase(grooves.begin() + long(b));
-        near_mm.erase(near_mm.begin() + long(b));
         break;
       }
     }
@@ -1912,9 +1904,14 @@ class Tracer {
     double last = -1;
     // Whether a groove within the largest reach is in pieces (else the second round would build
     // the same surfaces again).
+    // (A groove's pieces differ from it where there are several, or where they are one groove of
+    // parts of its own: two passes in pieces, passPieces.)
+    auto pieced = [&](size_t i) {
+      return seg_at[i + 1] - seg_at[i] != 1 || segs[seg_at[i]].parts != grooves[i].parts;
+    };
     bool split = false;
     for (size_t i = 0; i < grooves.size(); ++i)
-      split = split || (near_mm[i] <= reach_max * std::sqrt(2.0) + fp_r && pieced[i]);
+      split = split || (near_mm[i] <= reach_max * std::sqrt(2.0) + fp_r && pieced(i));
     for (int whole = split ? 0 : 1; whole < 2; ++whole) {
       last = -1;
       for (double f : {1.0, 0.5, 0.25}) {

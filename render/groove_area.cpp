@@ -440,8 +440,12 @@ double turnOf(Vec2d ta, Vec2d tb) {
 // cos(half the sector) so that on the wedge's edges its offset is the exact distance from v.
 void appendFan(const Groove& in, const Groove& like, Vec2d v, Vec2d tb, double turn, double max_sector,
                std::vector<Groove>& parts) {
-  // The outer side: away from where the second leg goes, in the first one's b.
-  const double outer = (in.bdir.x * tb.x + in.bdir.y * tb.y) > 0 ? -1.0 : 1.0;
+  // The outer side: away from where the second leg goes, in the first one's b. (Where the path
+  // turns back, within kMaxCornerTurn of a half turn, the second leg's direction no longer tells
+  // the sides apart: the turn's sign does, with the side that b is measured to.)
+  const double outer = std::fabs(turn) > kMaxCornerTurn
+                           ? (turn * (in.tdir.x * in.bdir.y - in.tdir.y * in.bdir.x) > 0 ? -1.0 : 1.0)
+                           : ((in.bdir.x * tb.x + in.bdir.y * tb.y) > 0 ? -1.0 : 1.0);
   // The cap's rays run from the first leg's outer normal to the second's, turning with the path.
   const Vec2d na = unitOf(in.bdir) * outer;
   const int n = std::max(1, int(std::ceil(std::fabs(turn) / max_sector - 1e-9)));
@@ -490,10 +494,22 @@ bool pointAt(const Groove& g, double t, Vec2d& v) {
 bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::vector<Groove>& parts) {
   parts.clear();
   const double turn = turnOf(in.tdir, out.tdir);
-  if (!(std::fabs(turn) >= 1e-6) || !(std::fabs(turn) <= kMaxCornerTurn) || !(max_sector > 0)) return false;
+  if (!(std::fabs(turn) >= 1e-6) || !(max_sector > 0)) return false;
   // The vertex: t = 0 and b = 0 on the leg before it.
   Vec2d v;
   if (!pointAt(in, 0, v)) return false;
+  if (std::fabs(turn) > kMaxCornerTurn) {
+    // The path turns back along itself: the leg before the vertex up to it, on both sides of its
+    // line, and the half disc beyond it as the cap.
+    Groove a = in;
+    a.parts = nullptr;
+    a.t_hi = 0;
+    a.dom[0] = {in.tdir, in.t0};
+    a.n_dom = 1;
+    parts.push_back(a);
+    appendFan(in, in, v, unitOf(out.tdir), turn > 0 ? M_PI : -M_PI, max_sector, parts);
+    return true;
+  }
   // The legs: each on its side of the bisector, t_in + t_out <= 0 before the corner (the two
   // t's measured from the vertex along each leg; on the bisector they are opposite).
   const HalfPlane before{in.tdir + out.tdir, in.t0 + out.t0};

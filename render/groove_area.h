@@ -117,13 +117,19 @@ struct Groove {
 // a straight groove through the vertex clipped to its wedge, with its profile stretched by 1 /
 // cos(half the sector) so that neighbouring sectors and the legs meet without a step (the cap
 // lies within 1 - cos(max_sector / 2) of the round one in its radii). Appends the parts to `out_parts`
-// (cleared first). False (nothing appended) for a turn of less than 1e-6 rad or more than
-// kMaxCornerTurn, where the legs' bisector degenerates: its normal, the sum of the legs'
-// directions, is 2 cos(turn / 2) long, 1.7e-3 at 179.9 degrees, so that the legs' directions,
-// rounded to float in the integrator's frames, turn it by up to about 1e-4 rad (on the inner side,
-// where both legs give nearly the same height). 175 degrees until 2026-11-29: a path doubling back
-// by 176 to 179 degrees ran straight past its vertex, its tip 0.3-0.4% of pixels >= 10 against
-// geometry at 512 spp where now under 0.1% (docs/grooves.md, "Corners").
+// (cleared first). False (nothing appended) for a turn of less than 1e-6 rad.
+//
+// Past kMaxCornerTurn the legs' bisector degenerates: its normal, the sum of the legs' directions,
+// is 2 cos(turn / 2) long, 1.7e-3 at 179.9 degrees, so that the legs' directions, rounded to float
+// in the integrator's frames, turn it by up to about 1e-4 rad (on the inner side, where both legs
+// give nearly the same height), and at a half turn it has no direction. There the path is taken
+// to go straight back along itself: `in` holds up to the vertex on both sides of its line (the
+// explicit geometry gives a tie to the earlier segment), `out` nowhere, and the cap is the half
+// disc beyond the vertex. The legs of a turn just short of a half turn part by at most 1.7e-3 mm
+// per mm from the vertex, which the surface then leaves out. (175 degrees until 2026-11-29: a
+// path doubling back by 176 to 179 degrees ran straight past its vertex, its tip 0.3-0.4% of
+// pixels >= 10 against geometry at 512 spp where now under 0.1%; past 179.9 degrees, a path
+// going exactly back over itself, until 2026-11-30: docs/grooves.md, "Corners".)
 constexpr double kMaxCornerTurn = 179.9 * 3.14159265358979323846 / 180.0;
 bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::vector<Groove>& out_parts);
 

@@ -942,6 +942,22 @@ class Tracer {
     PathPoint pp;
   };
 
+  // Whether two closest points of one path lie on one line: the same point and parallel or
+  // opposite tangents, within what float coordinates resolve (a few units in the last place).
+  static bool onOneLine(const PathPoint& a, const PathPoint& b) {
+    const float scale = 1.0f + std::max(std::max(std::fabs(a.point.x), std::fabs(a.point.y)),
+                                        std::max(std::fabs(b.point.x), std::fabs(b.point.y)));
+    const Vec2f d = a.point - b.point;
+    return std::max(std::fabs(d.x), std::fabs(d.y)) <= 5e-7f * scale &&
+           std::fabs(a.tangent.x * b.tangent.y - a.tangent.y * b.tangent.x) <= 1e-6f;
+  }
+  // Whether either end of the path lies within r of p.
+  static bool endWithin(const ScratchPath& path, Vec2f p, float r) {
+    for (const Vec2d& e : {path.points().front(), path.points().back()})
+      if (std::hypot(e.x - double(p.x), e.y - double(p.y)) <= double(r)) return true;
+    return false;
+  }
+
   void nearGrooves(const SurfacePoint& sp, float reach_extra, std::vector<NearGroove>& out) const {
     out.clear();
     float fpr = footprintOf(sp);
@@ -961,7 +977,23 @@ class Tracer {
       // and the two legs were one run of segments, of which only the nearer leg was taken.
       thread_local std::vector<PathPoint> passes;
       sc.path().closestBranches(sp.uv, r, passes, fpr + float(sc.referenceProfile().halfExtent()) * sc.maxScale());
-      for (const PathPoint& pp : passes) out.push_back({&sc, pp});
+      const size_t first = out.size();
+      for (const PathPoint& pp : passes) {
+        // A pass that lies on an earlier one's line (a path going exactly back over itself) is
+        // left out where neither of the path's ends is within reach: the explicit geometry takes
+        // the earlier pass there (ScratchPath::closest breaks ties to the lower segment), and the
+        // two as passes were split along their common centre line, a step between their two
+        // cross-sections where the force differs (docs/grooves.md, "A path that comes back").
+        bool retraced = false;
+        for (size_t i = first; i < out.size() && !retraced; ++i)
+          retraced = onOneLine(out[i].pp, pp) && !endWithin(sc.path(), sp.uv, r);
+        if (!retraced) {
+          out.push_back({&sc, pp});
+          continue;
+        }
+        for (size_t i = first; i < out.size(); ++i)  // (the earlier of the two along the path stays)
+          if (onOneLine(out[i].pp, pp) && pp.s < out[i].pp.s) out[i].pp = pp;
+      }
     });
   }
 

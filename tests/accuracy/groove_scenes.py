@@ -247,6 +247,22 @@ LAYOUTS["doubling"] = """
     hardness_hv: 30
 """
 
+# A scratch given point by point that goes exactly back over itself: a polyline out 3 mm and back
+# along the same line, its vertex 0.6 mm right of the centre (seen at 1.5 degrees). The explicit
+# geometry gives each point the earlier pass's cross-section (a tie, broken to the lower segment)
+# and a round cap beyond the vertex; the force's perturbation along the path makes the two passes'
+# cross-sections differ where they lie on each other (docs/grooves.md, "A path that comes back").
+LAYOUTS["retrace"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5, 0.5]
+    path_mm: [-2.4, -0.05, 0.6, -0.05, -2.4, -0.05]
+    force_kg: 2
+    hardness_hv: 30
+"""
+
 # A scratch given point by point that goes back and forth: three 10 mm legs 0.1 mm apart at the
 # centre (the middle one tilted by 0.57 degrees), turning by about 179.4 degrees 5 mm either side,
 # out of view (seen at 1.5 degrees). Their 0.19 mm wide grooves overlap; each point takes the

@@ -209,6 +209,16 @@ class GrooveAccuracy(unittest.TestCase):
         st = self.check("doubling", "bar", fov_deg=1.5)
         self.assertLess(st["pct_ge_10"], 0.3)
 
+    def test_retrace_bar(self):
+        """A scratch that goes exactly back over itself (groove_scenes.LAYOUTS["retrace"]) under
+        the bar light. Until 2026-11-30 a half turn was no corner (the legs ran straight on past
+        the vertex), and the two passes, lying on one line, were split along it, a step between
+        their cross-sections where the perturbed force differs: 1.74% of pixels >= 10 (mean dE
+        0.779), past the target; now 0.033% (0.221).
+        Bounded at 0.2%."""
+        st = self.check("retrace", "bar", fov_deg=1.5)
+        self.assertLess(st["pct_ge_10"], 0.2)
+
     def test_backforth_bar(self):
         """A scratch that goes back and forth past the view (groove_scenes.LAYOUTS["backforth"]:
         three legs 0.1 mm apart, their grooves overlapping) under the bar light. Until 2026-11-29

@@ -564,12 +564,15 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
     if (last) continue;
     // Corner k, at the start of leg k + 1.
     const double turn = turnOf(legs[k].tdir, legs[k + 1].tdir);
-    if (!(std::fabs(turn) <= kMaxCornerTurn)) return false;
+    if (!std::isfinite(turn)) return false;
     if (!(std::fabs(turn) >= 1e-6)) continue;
     Vec2d v;
     if (!pointAt(legs[k + 1], 0, v)) return false;
     fan.clear();
-    appendFan(legs[k], legs[k + 1], v, unitOf(legs[k + 1].tdir), turn, max_sector, fan);
+    // (Past kMaxCornerTurn a half turn, as in cornerParts: the two legs lie on one line, their |b|
+    // the same, and the fan is the half disc beyond the vertex.)
+    appendFan(legs[k], legs[k + 1], v, unitOf(legs[k + 1].tdir),
+              std::fabs(turn) > kMaxCornerTurn ? (turn > 0 ? M_PI : -M_PI) : turn, max_sector, fan);
     for (const Groove& c : fan) cands.push_back({c, {c.bdir, c.b0}});
   }
   // The partition of `bound`, one candidate at a time: each takes, within its own domain, the part

@@ -147,11 +147,13 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
 // and last leg unbounded beyond their far ends, where the groove's own ends hold), each sector of
 // a corner's fan (as in cornerParts) over its wedge, and every point goes to the candidate with
 // the smallest |b| there (for two candidates a and b the cut runs along b_a - b_b = 0 and b_a + b_b
-// = 0, as in passParts). Each cell of the partition is a part, its domain the half-planes that
-// bound it within `bound` (the largest region the caller will build), so the parts tile `bound`.
-// Appends the parts to `out_parts` (cleared first). False (nothing appended) where a corner turns
-// by more than kMaxCornerTurn, or the partition needs more than kMaxChainCells cells or a cell
-// more than Groove::kMaxDom half-planes.
+// = 0, as in passParts). A corner that turns by more than kMaxCornerTurn is a half turn, as in
+// cornerParts: its two legs lie on one line, their |b| the same, and its fan is the half disc
+// beyond the vertex. Each cell of the partition is a part,
+// its domain the half-planes that bound it within `bound` (the largest region the caller will
+// build), so the parts tile `bound`. Appends the parts to `out_parts` (cleared first). False
+// (nothing appended) where the partition needs more than kMaxChainCells cells or a cell more than
+// Groove::kMaxDom half-planes.
 constexpr size_t kMaxChainCells = 400;
 // No cell of the partition is narrower than kThinCut (mm) across one of its cuts: a line that
 // passes within it of a cell's far side leaves the cell whole. A tenth of a nanometre, far below

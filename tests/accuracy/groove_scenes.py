@@ -263,6 +263,20 @@ LAYOUTS["retrace"] = """
     hardness_hv: 30
 """
 
+# A scratch given point by point that goes back along itself for 0.1 mm and then turns 90 degrees
+# away: two corners 0.1 mm apart on a groove 0.19 mm wide, the first a half turn (seen at 1.5
+# degrees; docs/grooves.md, "Straight back over itself").
+LAYOUTS["turnback"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5, 0.5]
+    path_mm: [-3, 0, 0.3, 0, 0.2, 0, 0.2, 3]
+    force_kg: 2
+    hardness_hv: 30
+"""
+
 # A scratch given point by point that goes back and forth: three 10 mm legs 0.1 mm apart at the
 # centre (the middle one tilted by 0.57 degrees), turning by about 179.4 degrees 5 mm either side,
 # out of view (seen at 1.5 degrees). Their 0.19 mm wide grooves overlap; each point takes the

@@ -219,6 +219,16 @@ class GrooveAccuracy(unittest.TestCase):
         st = self.check("retrace", "bar", fov_deg=1.5)
         self.assertLess(st["pct_ge_10"], 0.2)
 
+    def test_turnback_bar(self):
+        """A scratch that goes back along itself for 0.1 mm and then turns away
+        (groove_scenes.LAYOUTS["turnback"]) under the bar light. Until 2026-11-30 a chain of
+        corners with a half turn was refused, and each footprint took its nearest corner alone, a
+        leg stopping inside the groove: 0.553% of pixels >= 10 (mean dE 0.405), past the target
+        (0.781% and 0.508 before the half turn was a corner); now 0.065% (0.222). Bounded at
+        0.3%."""
+        st = self.check("turnback", "bar", fov_deg=1.5)
+        self.assertLess(st["pct_ge_10"], 0.3)
+
     def test_backforth_bar(self):
         """A scratch that goes back and forth past the view (groove_scenes.LAYOUTS["backforth"]:
         three legs 0.1 mm apart, their grooves overlapping) under the bar light. Until 2026-11-29

@@ -303,8 +303,29 @@ void ScratchPath::closestOnSegment(size_t i, Vec2f p, float& best_d2, size_t& be
   float t = l2 > 0 ? clampf(((p.x - a.x) * d.x + (p.y - a.y) * d.y) / l2, 0.0f, 1.0f) : 0.0f;
   float ex = a.x + d.x * t - p.x, ey = a.y + d.y * t - p.y;
   float d2 = ex * ex + ey * ey;
-  // Strictly smaller, or equal on a lower segment index: deterministic ties.
-  if (d2 < best_d2 || (d2 == best_d2 && i < best_i)) {
+  // Nearer, or as near on a lower segment index: deterministic ties. Where the two segments lie on
+  // one line (a path going exactly back over itself), "as near" is within what the float
+  // coordinates resolve (eps, about 8 units in the last place of p's): their distances are one up
+  // to rounding, and the earlier pass is taken everywhere, not whichever rounded lower (with an
+  // asymmetric profile, a tilted tool's, the explicit geometry's surface was a random mix of the two
+  // passes' cross-sections). Elsewhere the nearer is taken as computed: segments of a flattened
+  // curve, near a point's foot on it, are all within eps, and the lower would pull the closest
+  // point back along the curve.
+  const float diff = d2 - best_d2;
+  const float s = 1.0f + std::max(std::fabs(p.x), std::fabs(p.y)), eps = 1e-6f * s;
+  bool take = diff < 0 || (diff == 0 && i < best_i);
+  if (std::fabs(diff) <= 0.01f * best_d2 + 1e-9f * s * s && best_i < pts_.size() - 1) {
+    // (The square roots and the test for one line only where the two are that close.)
+    const Vec2f b = ptsf_[best_i], e = ptsf_[best_i + 1] - b;
+    const float l = std::sqrt(l2), le = std::sqrt(e.x * e.x + e.y * e.y);
+    const bool one_line = l > 0 && le > 0 && std::fabs(d.x * e.y - d.y * e.x) <= 1e-6f * l * le &&
+                          std::fabs((b.x - a.x) * d.y - (b.y - a.y) * d.x) <= eps * l;
+    if (one_line) {
+      const float gap = std::sqrt(d2) - std::sqrt(best_d2);
+      take = i < best_i ? gap <= eps : gap < -eps;
+    }
+  }
+  if (take) {
     best_d2 = d2;
     best_i = i;
     best_t = t;

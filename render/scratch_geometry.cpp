@@ -43,6 +43,15 @@ struct PartTri {
 
 bool uvLess(Vec2d a, Vec2d b) { return std::tie(a.x, a.y) < std::tie(b.x, b.y); }
 
+// Whether two legs' lines (a point, a unit direction) are one line, parallel or opposite, to
+// rounding.
+bool oneLine(const std::pair<Vec2d, Vec2d>& a, const std::pair<Vec2d, Vec2d>& b) {
+  const double s = 1 + std::max({std::fabs(a.first.x), std::fabs(a.first.y), std::fabs(b.first.x), std::fabs(b.first.y)});
+  const Vec2d d = b.first - a.first;
+  return std::fabs(a.second.x * b.second.y - a.second.y * b.second.x) <= 1e-9 &&
+         std::fabs(d.x * a.second.y - d.y * a.second.x) <= 1e-9 * s;
+}
+
 // The rotation that takes unit vector a to unit vector b, applied to v (a and b not opposite).
 Vec3d turn(Vec3d a, Vec3d b, Vec3d v) {
   const double c = dot(a, b);
@@ -424,9 +433,13 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       };
       for (const auto& ps : passes)
         for (const auto& l : ps) f.push_back(side(l));
+      // (Not for two legs on one line, a path going exactly back over itself: the closest point
+      // stays on the earlier, ScratchPath::closest breaking the tie, and |b_i| - |b_j| is rounding
+      // noise, whose zero set cut the cell at random.)
       for (const auto& ps : passes)
         for (size_t i = 0; i < ps.size(); ++i)
-          for (size_t j = i + 1; j < ps.size(); ++j) f.push_back(std::fabs(side(ps[i])) - std::fabs(side(ps[j])));
+          for (size_t j = i + 1; j < ps.size(); ++j)
+            if (!oneLine(ps[i], ps[j])) f.push_back(std::fabs(side(ps[i])) - std::fabs(side(ps[j])));
       // First every scratch's own kinks, then where two trade places: h_a - h_b is affine only
       // within pieces that are already on one facet of each (cut the other way round, the chord
       // of its bent zero set would leave pieces straddling it).

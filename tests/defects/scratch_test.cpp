@@ -459,6 +459,32 @@ TEST(ScratchPath, ClosestPointAgainstBruteForce) {
   }
 }
 
+// A path that goes exactly back over itself: its two passes are as near every point beside them,
+// and the closest point is on the earlier (the lower segment), not on whichever pass's distance
+// rounds lower. The explicit geometry takes its cross-sections from it: with a tilted tool's
+// asymmetric profile the rounding made its surface a random mix of the two passes'.
+TEST(ScratchPath, ATieBetweenPassesOnOneLineGoesToTheEarlier) {
+  for (double scale : {1.0, 300.0}) {  // (coordinates of a small part, and of a door's)
+    const Vec2d a = Vec2d(0.31, 0.77) * scale, b = a + Vec2d(2.9, 1.7);
+    const ScratchPath p = ScratchPath::polyline({a, b, a});
+    const ScratchPath longer = ScratchPath::polyline({a - Vec2d(0.1, 0.3), a, b, a});  // (many segments before)
+    Rng rng(11, Stream::Test);
+    int later = 0, later_longer = 0;
+    const int n = 2000;
+    for (int k = 0; k < n; ++k) {
+      const double u = 0.05 + 0.9 * rng.uniformD(), v = 0.2 * (rng.uniformD() - 0.5);
+      const Vec2d t = (b - a) * (1 / std::hypot(b.x - a.x, b.y - a.y)), q = a + (b - a) * u + Vec2d(-t.y, t.x) * v;
+      const Vec2f qf(float(q.x), float(q.y));
+      const PathPoint c = p.closest(qf), g = p.closest(qf, 1.0f);
+      ASSERT_TRUE(c.found && g.found);
+      later += c.s > p.length() / 2 || g.s > p.length() / 2;
+      later_longer += longer.closest(qf, 1.0f).s > longer.length() / 2 + 0.16;
+    }
+    EXPECT_EQ(later, 0) << "of " << n << " points beside the path, scale " << scale;
+    EXPECT_EQ(later_longer, 0) << "of " << n << " points beside the path, scale " << scale;
+  }
+}
+
 // A path that passes a point more than once has one branch per pass: a hairpin, a loop that
 // crosses itself, and a long curve against dense samples of it.
 TEST(ScratchPath, BranchesAreThePassesNearAPoint) {

@@ -446,11 +446,21 @@ void appendFan(const Groove& in, const Groove& like, Vec2d v, Vec2d tb, double t
   const double outer = std::fabs(turn) > kMaxCornerTurn
                            ? (turn * (in.tdir.x * in.bdir.y - in.tdir.y * in.bdir.x) > 0 ? -1.0 : 1.0)
                            : ((in.bdir.x * tb.x + in.bdir.y * tb.y) > 0 ? -1.0 : 1.0);
-  // The cap's rays run from the first leg's outer normal to the second's, turning with the path.
+  // The cap's rays run from the first leg's outer normal to the second's, turning with the path
+  // (with the legs on one line, by a half turn: the half disc beyond the vertex).
   const Vec2d na = unitOf(in.bdir) * outer;
-  const int n = std::max(1, int(std::ceil(std::fabs(turn) / max_sector - 1e-9)));
-  const double half = 0.5 * turn / n, stretch = 1 / std::cos(half), tan_half = std::tan(std::fabs(half));
+  const bool on_one_line = std::fabs(turn) >= kPiTurn - kOneLineTurn;
+  const double sweep = on_one_line ? (turn > 0 ? kPiTurn : -kPiTurn) : turn;
+  // Where the two legs lie on one line, the explicit geometry measures the offset from the vertex
+  // with the first leg's sides (the closest point's tangent is the first leg's), and the cap takes
+  // on each side of its line the profile's half on that side: an even number of sectors, those
+  // past the middle with b the other way. (Short of that, the vertex's tangent is the legs' mean,
+  // across the first leg, and the whole cap takes the outer half.)
+  int n = std::max(1, int(std::ceil(std::fabs(sweep) / max_sector - 1e-9)));
+  if (on_one_line) n += n % 2;
+  const double half = 0.5 * sweep / n, stretch = 1 / std::cos(half), tan_half = std::tan(std::fabs(half));
   for (int k = 0; k < n; ++k) {
+    const double side = on_one_line && 2 * k >= n ? -1.0 : 1.0;
     const double ang = half * (2 * k + 1);
     const Vec2d u(na.x * std::cos(ang) - na.y * std::sin(ang), na.x * std::sin(ang) + na.y * std::cos(ang));
     const Vec2d w(-u.y, u.x);  // across the ray
@@ -461,10 +471,10 @@ void appendFan(const Groove& in, const Groove& like, Vec2d v, Vec2d tb, double t
     c.t_hi = 1e30;
     // b = outer (p - v).u / cos(half): the outer offset, on the sector's edges exactly its distance
     // from the vertex, as on the legs' end lines.
-    c.bdir = u * (outer * stretch);
+    c.bdir = u * (side * outer * stretch);
     c.b0 = -(c.bdir.x * v.x + c.bdir.y * v.y);
-    c.tdir = w;
-    c.t0 = -(w.x * v.x + w.y * v.y);
+    c.tdir = w * side;  // (the frame's hand kept)
+    c.t0 = -(c.tdir.x * v.x + c.tdir.y * v.y);
     // The wedge |(p - v).w| <= (p - v).u tan(half).
     const Vec2d e1 = w - u * tan_half, e2 = w * -1.0 - u * tan_half;
     c.dom[0] = {e1, -(e1.x * v.x + e1.y * v.y)};
@@ -498,21 +508,31 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
   // The vertex: t = 0 and b = 0 on the leg before it.
   Vec2d v;
   if (!pointAt(in, 0, v)) return false;
-  if (std::fabs(turn) > kMaxCornerTurn) {
-    // The path turns back along itself: the leg before the vertex up to it, on both sides of its
-    // line, and the half disc beyond it as the cap.
+  if (std::fabs(turn) >= kPiTurn - kOneLineTurn) {
+    // The legs lie on one line: the path goes back along itself. The first leg holds up to the
+    // vertex on both sides of its line (the explicit geometry's tie goes to the earlier segment),
+    // and the cap is the half disc beyond it.
     Groove a = in;
     a.parts = nullptr;
     a.t_hi = 0;
     a.dom[0] = {in.tdir, in.t0};
     a.n_dom = 1;
     parts.push_back(a);
-    appendFan(in, in, v, unitOf(out.tdir), turn > 0 ? M_PI : -M_PI, max_sector, parts);
+    appendFan(in, in, v, unitOf(out.tdir), turn, max_sector, parts);
     return true;
   }
   // The legs: each on its side of the bisector, t_in + t_out <= 0 before the corner (the two
-  // t's measured from the vertex along each leg; on the bisector they are opposite).
-  const HalfPlane before{in.tdir + out.tdir, in.t0 + out.t0};
+  // t's measured from the vertex along each leg; on the bisector they are opposite). Past
+  // kMaxCornerTurn that sum is too short for its direction to survive the legs' rounding, and the
+  // bisector's normal is the first leg's inner normal turned towards its direction by half of
+  // what the turn lacks of a half turn (the turn's own rounding is absolute, about 1e-7 rad).
+  HalfPlane before{in.tdir + out.tdir, in.t0 + out.t0};
+  if (std::fabs(turn) > kMaxCornerTurn) {
+    const double outer = turn * (in.tdir.x * in.bdir.y - in.tdir.y * in.bdir.x) > 0 ? -1.0 : 1.0;
+    const double lack = 0.5 * (kPiTurn - std::fabs(turn));
+    const Vec2d n = unitOf(in.tdir) * std::sin(lack) + unitOf(in.bdir) * (-outer * std::cos(lack));
+    before = {n, -(n.x * v.x + n.y * v.y)};
+  }
   Groove a = in, b = out;
   a.parts = b.parts = nullptr;
   a.t_hi = 0;
@@ -569,10 +589,9 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
     Vec2d v;
     if (!pointAt(legs[k + 1], 0, v)) return false;
     fan.clear();
-    // (Past kMaxCornerTurn a half turn, as in cornerParts: the two legs lie on one line, their |b|
-    // the same, and the fan is the half disc beyond the vertex.)
-    appendFan(legs[k], legs[k + 1], v, unitOf(legs[k + 1].tdir),
-              std::fabs(turn) > kMaxCornerTurn ? (turn > 0 ? M_PI : -M_PI) : turn, max_sector, fan);
+    // (Past kMaxCornerTurn, a half turn: the fan is the half disc beyond the vertex, as in
+    // cornerParts.)
+    appendFan(legs[k], legs[k + 1], v, unitOf(legs[k + 1].tdir), turn, max_sector, fan);
     for (const Groove& c : fan) cands.push_back({c, {c.bdir, c.b0}});
   }
   // The partition of `bound`, one candidate at a time: each takes, within its own domain, the part
@@ -732,7 +751,15 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
         // opposite signs.
         const HalfPlane& bo = cands[size_t(rest.owner)].b;
         const HalfPlane u{cd.b.a - bo.a, cd.b.c - bo.c}, v{cd.b.a + bo.a, cd.b.c + bo.c};
-        if (zero(u) || zero(v)) {  // on the owner's line: |b| the same everywhere
+        // On the owner's line, |b| the same everywhere, the owner (the earlier) keeps the cell: as
+        // closely as float frames give one line (a path going exactly back along itself), 1e-6 in
+        // direction and 1e-6 mm in place. (The difference of the two, a line at any angle through
+        // the rounding, cut the cell at random, which shows where the two legs' cross-sections
+        // differ: a tilted tool's asymmetric profile.)
+        auto same = [&](const HalfPlane& h) {
+          return std::hypot(h.a.x, h.a.y) <= 1e-6 * std::hypot(bo.a.x, bo.a.y) && std::fabs(h.c) <= 1e-6;
+        };
+        if (zero(u) || zero(v) || same(u) || same(v)) {
           next.push_back(rest);
         } else {
           Cell a, b;

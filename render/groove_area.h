@@ -123,14 +123,22 @@ struct Groove {
 // is 2 cos(turn / 2) long, 1.7e-3 at 179.9 degrees, so that the legs' directions, rounded to float
 // in the integrator's frames, turn it by up to about 1e-4 rad (on the inner side, where both legs
 // give nearly the same height), and at a half turn it has no direction. There the path is taken
-// to go straight back along itself: `in` holds up to the vertex on both sides of its line (the
-// explicit geometry gives a tie to the earlier segment), `out` nowhere, and the cap is the half
-// disc beyond the vertex. The legs of a turn just short of a half turn part by at most 1.7e-3 mm
-// per mm from the vertex, which the surface then leaves out. (175 degrees until 2026-11-29: a
+// to go back along itself, the cap being the half disc beyond the vertex. Where the legs lie on
+// one line (within kOneLineTurn of a half turn) `in` holds up to the vertex on both sides of its
+// line, as the explicit geometry gives the tie to the earlier segment, and the cap takes on each
+// side of that line the profile's half on that side; short of that, `in` holds on its outer side
+// and `out` on the inner, split along `in`'s line (the bisector lies within 0.05 degrees of it),
+// and the cap takes the profile's outer half, as the closest point's tangent there, the legs'
+// mean, is across `in`. (The two differ where the profile's sides do: a tilted tool's.) (175
+// degrees until 2026-11-29: a
 // path doubling back by 176 to 179 degrees ran straight past its vertex, its tip 0.3-0.4% of
 // pixels >= 10 against geometry at 512 spp where now under 0.1%; past 179.9 degrees, a path
 // going exactly back over itself, until 2026-11-30: docs/grooves.md, "Corners".)
 constexpr double kMaxCornerTurn = 179.9 * 3.14159265358979323846 / 180.0;
+// A half turn, and how near a turn must come to it for its legs to be one line (the explicit
+// geometry's test, ScratchPath::closest, in float: their directions' cross product within 1e-6).
+constexpr double kPiTurn = 3.14159265358979323846;
+constexpr double kOneLineTurn = 1e-6;
 bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::vector<Groove>& out_parts);
 
 // The parts of a groove whose path turns at several corners near the footprint (a hook, a U-turn
@@ -148,8 +156,8 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
 // a corner's fan (as in cornerParts) over its wedge, and every point goes to the candidate with
 // the smallest |b| there (for two candidates a and b the cut runs along b_a - b_b = 0 and b_a + b_b
 // = 0, as in passParts). A corner that turns by more than kMaxCornerTurn is a half turn, as in
-// cornerParts: its two legs lie on one line, their |b| the same, and its fan is the half disc
-// beyond the vertex. Each cell of the partition is a part,
+// cornerParts: its fan is the half disc beyond the vertex; where two candidates lie on one line
+// (1e-6 in direction and 1e-6 mm in place), the earlier keeps what they share. Each cell of the partition is a part,
 // its domain the half-planes that bound it within `bound` (the largest region the caller will
 // build), so the parts tile `bound`. Appends the parts to `out_parts` (cleared first). False
 // (nothing appended) where the partition needs more than kMaxChainCells cells or a cell more than

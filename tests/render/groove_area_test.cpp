@@ -122,9 +122,13 @@ const std::vector<Vec2d> kProfile = {{-0.07, 0}, {-0.06, 0.004}, {-0.05, 0}, {0,
                                      {0.05, 0}, {0.06, 0.004}, {0.07, 0}};
 const std::vector<int> kLayers = {0, 0, 1, 2, 0, 0};
 
-// kProfile's height at b, as the explicit geometry takes it (straight between its points).
-double profileAt(double b) {
-  const auto& P = kProfile;
+// The same with its two sides unlike, as a tilted tool cuts it: one pile-up higher, the bottom off
+// the centre line.
+const std::vector<Vec2d> kTiltedProfile = {{-0.07, 0}, {-0.06, 0.007}, {-0.05, 0}, {0.012, -0.02},
+                                           {0.05, 0}, {0.06, 0.002}, {0.07, 0}};
+
+// A profile's height at b, as the explicit geometry takes it (straight between its points).
+double profileAt(double b, const std::vector<Vec2d>& P = kProfile) {
   if (b <= P.front().x || b >= P.back().x) return 0.0;
   for (size_t j = 0; j + 1 < P.size(); ++j)
     if (b >= P[j].x && b <= P[j + 1].x) return P[j].y + (P[j + 1].y - P[j].y) * (b - P[j].x) / (P[j + 1].x - P[j].x);
@@ -134,12 +138,12 @@ double profileAt(double b) {
 // The largest difference over an 81 x 81 grid of [-0.15, 0.15]^2 between s's height and kProfile at
 // the signed distance to the closest point of `path` (Scratch::height's rule); infinite, with a
 // failure, where a grid point is on no piece.
-double offClosestProfile(const Surface& s, const ScratchPath& path) {
+double offClosestProfile(const Surface& s, const ScratchPath& path, const std::vector<Vec2d>& profile = kProfile) {
   double worst = 0;
   for (int j = 0; j <= 80; ++j)
     for (int i = 0; i <= 80; ++i) {
       const Vec2d p(-0.15 + 0.3 * (i + 0.31) / 81, -0.15 + 0.3 * (j + 0.57) / 81);
-      const double want = profileAt(double(path.closest(Vec2f(float(p.x), float(p.y))).offset));
+      const double want = profileAt(double(path.closest(Vec2f(float(p.x), float(p.y))).offset), profile);
       const int k = pieceAt(s, p);
       if (k < 0) {
         ADD_FAILURE() << "no piece at " << p.x << ", " << p.y;
@@ -481,13 +485,14 @@ INSTANTIATE_TEST_SUITE_P(CrossingEndsAndCorner, Layouts, ::testing::Values(0, 1,
 // 0.07 mm (its half-width) x (1 / cos 7.5 degrees - 1) = 2.4e-4 mm of it. One straight groove
 // through the vertex (the leg before it, carried on) is off by far more.
 TEST(GrooveArea, ACornersPiecesFollowTheClosestPointOnThePath) {
-  for (double turn : {30.0, 90.0, 150.0, 170.0, 177.0, 179.8, -60.0, -120.0, -179.0, 179.95, 180.0, -180.0}) {
+  for (double turn : {30.0, 90.0, 150.0, 170.0, 177.0, 179.8, -60.0, -120.0, -179.0, 179.95, -179.9999, 180.0, -180.0}) {
     const Vec2d v(0.01, 0.02), ta = dirOf(10), tb = dirOf(10 + turn);
     auto [a, b] = legs(v, ta, tb);
     std::vector<Groove> parts;
     ASSERT_TRUE(cornerParts(a, b, 15 * M_PI / 180, parts));
-    const bool back = std::fabs(turn) > 179.9;  // one leg, and a fan of a half turn
-    EXPECT_EQ(parts.size(), (back ? 1 : 2) + size_t(std::ceil((back ? 180 : std::fabs(turn)) / 15 - 1e-9)));
+    // Past 179.9 degrees a fan of a half turn; on one line, one leg.
+    const bool back = std::fabs(turn) > 179.9, one_line = std::fabs(turn) == 180;
+    EXPECT_EQ(parts.size(), (one_line ? 1 : 2) + size_t(std::ceil((back ? 180 : std::fabs(turn)) / 15 - 1e-9)));
     Groove g;
     g.parts = &parts;
     Surface s, straight;
@@ -501,7 +506,7 @@ TEST(GrooveArea, ACornersPiecesFollowTheClosestPointOnThePath) {
     for (const Piece& pc : s.pieces()) area += pc.wall ? 0.0 : pc.poly.area();
     EXPECT_NEAR(area, 0.16, 1e-9);
     const double worst = offClosestProfile(s, path), worst_straight = offClosestProfile(straight, path);
-    std::printf("[          ] turn %7.2f: %zu parts, height off by at most %.2e mm (one straight groove %.2e)\n", turn,
+    std::printf("[          ] turn %9.4f: %zu parts, height off by at most %.2e mm (one straight groove %.2e)\n", turn,
                 parts.size(), worst, worst_straight);
     EXPECT_LT(worst, 2.5e-4) << "turn " << turn;
     EXPECT_GT(worst_straight, 0.01) << "turn " << turn;
@@ -511,6 +516,31 @@ TEST(GrooveArea, ACornersPiecesFollowTheClosestPointOnThePath) {
   auto [a, b] = legs({0, 0}, dirOf(10), dirOf(10));
   EXPECT_FALSE(cornerParts(a, b, 0.26, parts));
   EXPECT_TRUE(parts.empty());
+}
+
+// A path going back over itself, with a tilted tool's profile, whose two sides differ. With the
+// legs on one line the cap beyond the vertex takes, on each side of the first leg's line, the
+// profile's half on that side, as the explicit geometry measures the offset from the vertex with
+// the first leg's sides; with one side's half over the whole cap, the heights were off by the
+// difference of the two pile-ups. Just short of a half turn each leg holds its outer side, and the
+// cap takes the outer half. (Within about 1e-5 rad of a half turn the reference itself is
+// rounding: the two legs' float distances differ by less than their last bits.)
+TEST(GrooveArea, AHalfTurnsCapTakesEachSideOfAnAsymmetricProfile) {
+  for (double turn : {180.0, -180.0, 179.95}) {
+    const Vec2d v(0.01, 0.02), ta = dirOf(10), tb = dirOf(10 + turn);
+    auto [a, b] = legs(v, ta, tb);
+    a.pts = b.pts = &kTiltedProfile;
+    std::vector<Groove> parts;
+    ASSERT_TRUE(cornerParts(a, b, 15 * M_PI / 180, parts));
+    EXPECT_EQ(parts.size(), std::fabs(turn) == 180 ? 13u : 14u);
+    Groove g;
+    g.parts = &parts;
+    Surface s;
+    ASSERT_TRUE(s.build(rect(-0.2, -0.2, 0.2, 0.2), {g}));
+    const double worst = offClosestProfile(s, ScratchPath::polyline({v - ta, v, v + tb}), kTiltedProfile);
+    std::printf("[          ] turn %9.4f: height off by at most %.2e mm\n", turn, worst);
+    EXPECT_LT(worst, 4.5e-4) << "turn " << turn;  // (steepest slope 0.7: 0.7 x 0.07 x (1 / cos 7.5 degrees - 1))
+  }
 }
 
 // A path that turns at several corners within the region: a U-turn made of two corners, a hook,

@@ -154,6 +154,14 @@ double offClosestProfile(const Surface& s, const ScratchPath& path, const std::v
   return worst;
 }
 
+// A groove made of parts (cornerParts, chainParts, passParts), with id `id`.
+Groove ofParts(const std::vector<Groove>& parts, int id = 0) {
+  Groove g;
+  g.parts = &parts;
+  g.id = id;
+  return g;
+}
+
 Groove along(Vec2d t, double b0, int id) {
   Groove g;
   g.tdir = t;
@@ -219,9 +227,7 @@ std::vector<Groove> corner() {
   static std::vector<Groove> parts;
   auto [a, b] = legs({0.005, -0.01}, dirOf(20), dirOf(-100));
   EXPECT_TRUE(cornerParts(a, b, 15 * M_PI / 180, parts));
-  Groove g;
-  g.parts = &parts;
-  return {g};
+  return {ofParts(parts)};
 }
 
 class Layouts : public ::testing::TestWithParam<int> {
@@ -493,8 +499,7 @@ TEST(GrooveArea, ACornersPiecesFollowTheClosestPointOnThePath) {
     // Past 179.9 degrees a fan of a half turn; on one line, one leg.
     const bool back = std::fabs(turn) > 179.9, one_line = std::fabs(turn) == 180;
     EXPECT_EQ(parts.size(), (one_line ? 1 : 2) + size_t(std::ceil((back ? 180 : std::fabs(turn)) / 15 - 1e-9)));
-    Groove g;
-    g.parts = &parts;
+    Groove g = ofParts(parts);
     Surface s, straight;
     ASSERT_TRUE(s.build(rect(-0.2, -0.2, 0.2, 0.2), {g}));
     Groove on = a;
@@ -533,8 +538,7 @@ TEST(GrooveArea, AHalfTurnsCapTakesEachSideOfAnAsymmetricProfile) {
     std::vector<Groove> parts;
     ASSERT_TRUE(cornerParts(a, b, 15 * M_PI / 180, parts));
     EXPECT_EQ(parts.size(), std::fabs(turn) == 180 ? 13u : 14u);
-    Groove g;
-    g.parts = &parts;
+    Groove g = ofParts(parts);
     Surface s;
     ASSERT_TRUE(s.build(rect(-0.2, -0.2, 0.2, 0.2), {g}));
     const double worst = offClosestProfile(s, ScratchPath::polyline({v - ta, v, v + tb}), kTiltedProfile);
@@ -596,9 +600,7 @@ TEST(GrooveArea, AChainOfCornersFollowsTheClosestPointOnThePath) {
     }
     std::vector<Groove> parts;
     ASSERT_TRUE(chainParts(legs_of, 15 * M_PI / 180, region, parts)) << c.name;
-    Groove g;
-    g.parts = &parts;
-    g.id = 3;
+    Groove g = ofParts(parts, 3);
     Surface s;
     ASSERT_TRUE(s.build(region, {g})) << c.name;
     EXPECT_TRUE(s.walls().empty()) << c.name;
@@ -616,8 +618,7 @@ TEST(GrooveArea, AChainOfCornersFollowsTheClosestPointOnThePath) {
       a.t_hi = 0;
     }
     ASSERT_TRUE(cornerParts(a, b, 15 * M_PI / 180, one_parts));
-    Groove one;
-    one.parts = &one_parts;
+    Groove one = ofParts(one_parts);
     Surface s1;
     ASSERT_TRUE(s1.build(region, {one}));
     const double worst = offClosestProfile(s, path), worst_one = offClosestProfile(s1, path);
@@ -682,9 +683,7 @@ TEST(GrooveArea, BendsOfACurveFollowTheClosestPointOnThePath) {
     const std::vector<Groove> legs_of = legsOfBends(path, bends, span);
     std::vector<Groove> parts;
     ASSERT_TRUE(chainParts(legs_of, 15 * M_PI / 180, region, parts)) << c.name << ", " << bends.size() << " bends";
-    Groove g;
-    g.parts = &parts;
-    g.id = 3;
+    Groove g = ofParts(parts, 3);
     Surface s;
     ASSERT_TRUE(s.build(region, {g})) << c.name;
     // The tangent at the closest point alone.
@@ -747,9 +746,7 @@ TEST(GrooveArea, AChainsPartitionHasNoSlivers) {
           for (int k = 0; k < q.n_dom && !d.empty(); ++k) d = clip(d, q.dom[k].a, q.dom[k].c);
           if (!d.empty()) thinnest_part = std::min(thinnest_part, widthOf(d));
         }
-        Groove g;
-        g.parts = &parts;
-        g.id = 3;
+        Groove g = ofParts(parts, 3);
         Surface s;
         if (!s.build(rect(-0.15, -0.15, 0.15, 0.15), {g})) continue;
         for (const Piece& pc : s.pieces())
@@ -779,9 +776,7 @@ TEST(GrooveArea, TheGridOfPartsFindsThePartThatHoldsAPoint) {
   std::vector<Groove> parts;
   ASSERT_TRUE(chainParts(legs_of, 15 * M_PI / 180, rect(-0.3, -0.3, 0.3, 0.3), parts));
   ASSERT_GE(parts.size(), Surface::kPartsIndexed);
-  Groove g;
-  g.parts = &parts;
-  g.id = 3;
+  Groove g = ofParts(parts, 3);
   Surface small, large;
   const Poly small_region = rect(-0.04, -0.03, 0.05, 0.06);
   ASSERT_TRUE(small.build(small_region, {g}));
@@ -837,9 +832,7 @@ TEST(GrooveArea, APathsTwoPassesEachHoldWhereTheyAreTheNearer) {
     std::vector<Groove> parts;
     ASSERT_TRUE(passParts(a, b, parts));
     ASSERT_EQ(parts.size(), 4u);
-    Groove g;
-    g.parts = &parts;
-    g.id = 7;
+    Groove g = ofParts(parts, 7);
     Surface s, composite;
     ASSERT_TRUE(s.build(rect(-0.2, -0.2, 0.2, 0.2), {g}));
     ASSERT_TRUE(composite.build(rect(-0.2, -0.2, 0.2, 0.2), {a, b}));
@@ -881,10 +874,7 @@ TEST(GrooveArea, ThreePassesOfAPathAreOnePartition) {
   const Poly region = rect(-0.2, -0.2, 0.2, 0.2);
   ASSERT_TRUE(chainParts({a, b, c}, 15 * M_PI / 180, region, parts, {1, 2}));
   ASSERT_TRUE(passParts(a, b, pair));
-  Groove g, ab;
-  g.parts = &parts;
-  ab.parts = &pair;
-  g.id = ab.id = 7;
+  const Groove g = ofParts(parts, 7), ab = ofParts(pair, 7);
   Surface s, two;
   ASSERT_TRUE(s.build(region, {g}));
   ASSERT_TRUE(two.build(region, {ab, c}));
@@ -928,9 +918,7 @@ TEST(GrooveArea, APathsTwoPassesInPiecesEachHoldWhereTheyAreTheNearer) {
   std::vector<Groove> parts;
   ASSERT_TRUE(passPieces(a.data(), a.size(), b.data(), b.size(), parts));
   ASSERT_EQ(parts.size(), 12u);
-  Groove g;
-  g.parts = &parts;
-  g.id = 7;
+  Groove g = ofParts(parts, 7);
   Surface s, composite;
   const Poly region = rect(-0.2, -0.2, 0.2, 0.2);
   ASSERT_TRUE(s.build(region, {g}));
@@ -1370,8 +1358,7 @@ TEST(GrooveArea, AChainSeenFromFarTilesTheRegion) {
   std::vector<Groove> parts;
   const Poly region = rect(-0.50440025476180017, -0.49237991876341403, 0.50440025476180017, 0.49237991876341403);
   ASSERT_TRUE(chainParts(legs_of, 15 * M_PI / 180, region, parts));
-  Groove g;
-  g.parts = &parts;
+  Groove g = ofParts(parts);
   Surface surf;
   ASSERT_TRUE(surf.build(region, {g}));
   double area = 0;

@@ -434,18 +434,22 @@ double turnOf(Vec2d ta, Vec2d tb) {
   return std::atan2(ta.x * tb.y - ta.y * tb.x, ta.x * tb.x + ta.y * tb.y);
 }
 
+// The sign of the first leg's b on a corner's outer side: away from where the second leg goes (tb
+// its direction). (Where the path turns back, within kMaxCornerTurn of a half turn, the second
+// leg's direction no longer tells the sides apart: the turn's sign does, with the side that b is
+// measured to.)
+double outerOf(const Groove& in, Vec2d tb, double turn) {
+  if (std::fabs(turn) > kMaxCornerTurn) return turn * (in.tdir.x * in.bdir.y - in.tdir.y * in.bdir.x) > 0 ? -1.0 : 1.0;
+  return (in.bdir.x * tb.x + in.bdir.y * tb.y) > 0 ? -1.0 : 1.0;
+}
+
 // The round outer side of a corner at v where the path turns by `turn` from leg `in` to a leg
 // along tb: sectors no wider than max_sector, each a straight groove through v (with `like`'s
 // profile, layers and id) across its middle ray, clipped to its wedge and stretched by 1 /
 // cos(half the sector) so that on the wedge's edges its offset is the exact distance from v.
 void appendFan(const Groove& in, const Groove& like, Vec2d v, Vec2d tb, double turn, double max_sector,
                std::vector<Groove>& parts) {
-  // The outer side: away from where the second leg goes, in the first one's b. (Where the path
-  // turns back, within kMaxCornerTurn of a half turn, the second leg's direction no longer tells
-  // the sides apart: the turn's sign does, with the side that b is measured to.)
-  const double outer = std::fabs(turn) > kMaxCornerTurn
-                           ? (turn * (in.tdir.x * in.bdir.y - in.tdir.y * in.bdir.x) > 0 ? -1.0 : 1.0)
-                           : ((in.bdir.x * tb.x + in.bdir.y * tb.y) > 0 ? -1.0 : 1.0);
+  const double outer = outerOf(in, tb, turn);
   // The cap's rays run from the first leg's outer normal to the second's, turning with the path
   // (with the legs on one line, by a half turn: the half disc beyond the vertex).
   const Vec2d na = unitOf(in.bdir) * outer;
@@ -528,7 +532,7 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
   // what the turn lacks of a half turn (the turn's own rounding is absolute, about 1e-7 rad).
   HalfPlane before{in.tdir + out.tdir, in.t0 + out.t0};
   if (std::fabs(turn) > kMaxCornerTurn) {
-    const double outer = turn * (in.tdir.x * in.bdir.y - in.tdir.y * in.bdir.x) > 0 ? -1.0 : 1.0;
+    const double outer = outerOf(in, unitOf(out.tdir), turn);
     const double lack = 0.5 * (kPiTurn - std::fabs(turn));
     const Vec2d n = unitOf(in.tdir) * std::sin(lack) + unitOf(in.bdir) * (-outer * std::cos(lack));
     before = {n, -(n.x * v.x + n.y * v.y)};

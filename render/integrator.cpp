@@ -984,15 +984,12 @@ class Tracer {
         // the earlier pass there (ScratchPath::closest breaks ties to the lower segment), and the
         // two as passes were split along their common centre line, a step between their two
         // cross-sections where the force differs (docs/grooves.md, "A path that comes back").
-        bool retraced = false;
-        for (size_t i = first; i < out.size() && !retraced; ++i)
-          retraced = onOneLine(out[i].pp, pp) && !endWithin(sc.path(), sp.uv, r);
-        if (!retraced) {
+        size_t on = first;
+        while (on < out.size() && !onOneLine(out[on].pp, pp)) ++on;
+        if (on == out.size() || endWithin(sc.path(), sp.uv, r))
           out.push_back({&sc, pp});
-          continue;
-        }
-        for (size_t i = first; i < out.size(); ++i)  // (the earlier of the two along the path stays)
-          if (onOneLine(out[i].pp, pp) && pp.s < out[i].pp.s) out[i].pp = pp;
+        else if (pp.s < out[on].pp.s)  // (the earlier of the two along the path stays)
+          out[on].pp = pp;
       }
     });
   }

@@ -134,6 +134,31 @@ std::pair<double, double> ScratchPath::spanAt(double s) const {
   return {after == b ? 0.0 : (after - 1)->s, after == e ? length() : after->s};
 }
 
+void ScratchPath::keepRetracesAlike(size_t a, size_t b, std::vector<char>& keep) const {
+  // Where the path goes exactly back over its own points (a cubic followed by its reverse, which
+  // flattens into the same points), the kept vertices on the way out and on the way back must be
+  // the same points, so that the legs of both passes lie on one line and the explicit geometry's
+  // tie (to the earlier pass: ScratchPath::closest) can be kept by chainParts. The simplification
+  // itself is not symmetric: Douglas-Peucker splits each run at its first farthest vertex, and a
+  // run from a point back to that point has two (each vertex and its mirror image). Kept apart,
+  // the legs of the two passes crossed at small angles and each held where it was the nearer: a
+  // tilted tool's mirrored cross-section in wedges along the groove (docs/grooves.md, "Straight
+  // back over itself").
+  for (size_t m = a + 1; m < b; ++m) {
+    if (!(pts_[m - 1].x == pts_[m + 1].x && pts_[m - 1].y == pts_[m + 1].y)) continue;
+    keep[m] = 1;  // (the half turn itself: the two passes' legs meet there)
+    for (size_t j = 1; j <= m - a && m + j <= b; ++j) {
+      const size_t lo = m - j, hi = m + j;
+      if (!(pts_[lo].x == pts_[hi].x && pts_[lo].y == pts_[hi].y)) break;
+      // (The window's ends count as kept: the chain starts and ends there.)
+      if (lo == a || hi == b || keep[lo] || keep[hi]) {
+        if (lo > a) keep[lo] = 1;
+        if (hi < b) keep[hi] = 1;
+      }
+    }
+  }
+}
+
 bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, double growth, double min_stray,
                               size_t max_bends, double max_dev, std::vector<Corner>& out,
                               std::pair<double, double>& span) const {
@@ -166,6 +191,7 @@ bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, doubl
       if (seg > a) keep[seg] = 1;
       if (seg + 1 < b) keep[seg + 1] = 1;
     }
+    keepRetracesAlike(a, b, keep);
     size_t kept = 0;
     for (size_t i = a + 1; i < b; ++i) kept += keep[i] != 0;
     if (kept == 0) return false;

@@ -277,6 +277,27 @@ LAYOUTS["turnback"] = """
     hardness_hv: 30
 """
 
+# A cubic followed by its own reverse, cut by a tool tilted 7 degrees (seen at 1.5 degrees): the
+# path goes out 6 mm and comes back over the same flattened points, its tip 0.25 mm up-right of the
+# centre (the retraces fuzzer's r2_4, moved; 2.83 kg with a high pile-up and a strong perturbation). The explicit geometry keeps the way out's cross-section, whose two sides differ, and a
+# round cap beyond the tip; the polygons must take the way out's bends for both passes, so that
+# their legs lie on one line (ScratchPath::bendsAround; docs/grooves.md, "Straight back over
+# itself").
+LAYOUTS["recurve"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: bezier
+    center: [0.5, 0.5]
+    path_mm: [0.3459, -5.6308, -0.9195, -0.0715, 2.9053, -2.5842, 0.238, 0.1576, 2.9053, -2.5842, -0.9195, -0.0715, 0.3459, -5.6308]
+    force_kg: 2.83
+    hardness_hv: 30
+    perturbation: 0.4
+    pileup: 0.83
+    tool_tilt_deg: 7
+    tool_tilt_azimuth_deg: 302
+"""
+
 # A scratch given point by point that goes back and forth: three 10 mm legs 0.1 mm apart at the
 # centre (the middle one tilted by 0.57 degrees), turning by about 179.4 degrees 5 mm either side,
 # out of view (seen at 1.5 degrees). Their 0.19 mm wide grooves overlap; each point takes the

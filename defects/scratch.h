@@ -130,14 +130,10 @@ class ScratchPath {
                    double max_dev, std::vector<Corner>& out, std::pair<double, double>& span) const;
 
  private:
+  void finish();  // arc lengths, box, float copy, segment grid
   // bendsAround's kept vertices (indices in [a, b], the window's ends implied) made the same on
   // both passes of each stretch where the path goes exactly back over its own points.
   void keepRetracesAlike(size_t a, size_t b, std::vector<char>& keep) const;
-
- public:
-
- private:
-  void finish();  // arc lengths, box, float copy, segment grid
   void closestOnSegment(size_t i, Vec2f p, float& best_d2, size_t& best_i, float& best_t) const;
   // The corner of [b, e) nearest p within max_dist (the later on a tie), or null.
   static const Corner* nearestOf(const Corner* b, const Corner* e, Vec2d p, double max_dist);

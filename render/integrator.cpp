@@ -951,11 +951,20 @@ class Tracer {
     return std::max(std::fabs(d.x), std::fabs(d.y)) <= 5e-7f * scale &&
            std::fabs(a.tangent.x * b.tangent.y - a.tangent.y * b.tangent.x) <= 1e-6f;
   }
-  // Whether either end of the path lies within r of p.
-  static bool endWithin(const ScratchPath& path, Vec2f p, float r) {
-    for (const Vec2d& e : {path.points().front(), path.points().back()})
-      if (std::hypot(e.x - double(p.x), e.y - double(p.y)) <= double(r)) return true;
-    return false;
+  // Whether a later pass's closest point b is the path's end, lying on the line of an earlier
+  // pass's closest point a, their tangents parallel or opposite (as onOneLine): a path that comes
+  // back along its own line and ends there, seen past its end, where the earlier is the nearer.
+  static bool endOnLine(const ScratchPath& path, const PathPoint& a, const PathPoint& b) {
+    const float scale = 1.0f + std::max(std::max(std::fabs(a.point.x), std::fabs(a.point.y)),
+                                        std::max(std::fabs(b.point.x), std::fabs(b.point.y)));
+    const Vec2f d = b.point - a.point;
+    return b.s >= float(path.length()) && std::fabs(a.tangent.x * d.y - a.tangent.y * d.x) <= 5e-7f * scale &&
+           std::fabs(a.tangent.x * b.tangent.y - a.tangent.y * b.tangent.x) <= 1e-6f;
+  }
+  // Whether the path's start lies within r of p.
+  static bool startWithin(const ScratchPath& path, Vec2f p, float r) {
+    const Vec2d& e = path.points().front();
+    return std::hypot(e.x - double(p.x), e.y - double(p.y)) <= double(r);
   }
 
   void nearGrooves(const SurfacePoint& sp, float reach_extra, std::vector<NearGroove>& out) const {
@@ -980,13 +989,20 @@ class Tracer {
       const size_t first = out.size();
       for (const PathPoint& pp : passes) {
         // A pass that lies on an earlier one's line (a path going exactly back over itself) is
-        // left out where neither of the path's ends is within reach: the explicit geometry takes
-        // the earlier pass there (ScratchPath::closest breaks ties to the lower segment), and the
-        // two as passes were split along their common centre line, a step between their two
+        // left out where the path's start is not within reach: the explicit geometry takes the
+        // earlier pass there (ScratchPath::closest breaks ties to the lower segment), and the two
+        // as passes were split along their common centre line, a step between their two
         // cross-sections where the force differs (docs/grooves.md, "A path that comes back").
+        // The path's end needs no exception: the later pass ends on the earlier's line, and
+        // beyond its end the earlier is the nearer. (Until 2026-11-30 it had one, and a path that
+        // came back short of its start was split along its line over the later pass's force fade:
+        // the retraces fuzzer's r4_19.) Past the start the later pass may run on alone.
+        // Seen past that end, the later pass's closest point is its end, on the earlier's line,
+        // and it is left out too (kept, the sections split the two along their common line, the
+        // later pass's side flat where its force has faded).
         size_t on = first;
-        while (on < out.size() && !onOneLine(out[on].pp, pp)) ++on;
-        if (on == out.size() || endWithin(sc.path(), sp.uv, r))
+        while (on < out.size() && !onOneLine(out[on].pp, pp) && !endOnLine(sc.path(), out[on].pp, pp)) ++on;
+        if (on == out.size() || startWithin(sc.path(), sp.uv, r))
           out.push_back({&sc, pp});
         else if (pp.s < out[on].pp.s)  // (the earlier of the two along the path stays)
           out[on].pp = pp;

@@ -298,6 +298,25 @@ LAYOUTS["recurve"] = """
     tool_tilt_azimuth_deg: 302
 """
 
+# A light scratch given point by point that comes back along its own line and ends short of its
+# start (the retraces fuzzer's r4_19, its end put exactly on the line): out 5.3 mm to 0.35 mm right
+# of the centre and back 0.95 mm to 0.6 mm left of it (seen at 1.5 degrees), the force fading over
+# the path's last 2 mm, the whole way back. The explicit geometry keeps the way out's
+# cross-section wherever the two lie on each other, and past the end of the way back the way out
+# is the nearer (docs/grooves.md, "Straight back over itself").
+LAYOUTS["shortback"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5, 0.5]
+    path_mm: [-4.9657, -0.3683, 0.3492, -0.1024, -0.6043, -0.15010280720239327]
+    force_kg: 0.4
+    hardness_hv: 20
+    perturbation: 0
+    pileup: 0.88
+"""
+
 # A scratch given point by point that goes back and forth: three 10 mm legs 0.1 mm apart at the
 # centre (the middle one tilted by 0.57 degrees), turning by about 179.4 degrees 5 mm either side,
 # out of view (seen at 1.5 degrees). Their 0.19 mm wide grooves overlap; each point takes the

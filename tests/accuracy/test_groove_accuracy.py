@@ -239,6 +239,15 @@ class GrooveAccuracy(unittest.TestCase):
         st = self.check("recurve", "bar", fov_deg=1.5)
         self.assertLess(st["pct_ge_10"], 0.3)
 
+    def test_shortback_ring(self):
+        """A scratch that comes back along its own line and ends short of its start
+        (groove_scenes.LAYOUTS["shortback"]), under the ring light. Until 2026-11-30 the two
+        passes were kept apart near the path's end and split along their common line, the later
+        pass's half flat where its force had faded: 0.629% of pixels >= 10 (mean dE 0.350), past
+        the target; now 0% (0.109). Bounded at 0.3%."""
+        st = self.check("shortback", "ring", fov_deg=1.5)
+        self.assertLess(st["pct_ge_10"], 0.3)
+
     def test_backforth_bar(self):
         """A scratch that goes back and forth past the view (groove_scenes.LAYOUTS["backforth"]:
         three legs 0.1 mm apart, their grooves overlapping) under the bar light. Until 2026-11-29

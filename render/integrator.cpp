@@ -994,12 +994,11 @@ class Tracer {
         // as passes were split along their common centre line, a step between their two
         // cross-sections where the force differs (docs/grooves.md, "A path that comes back").
         // The path's end needs no exception: the later pass ends on the earlier's line, and
-        // beyond its end the earlier is the nearer. (Until 2026-11-30 it had one, and a path that
-        // came back short of its start was split along its line over the later pass's force fade:
-        // the retraces fuzzer's r4_19.) Past the start the later pass may run on alone.
-        // Seen past that end, the later pass's closest point is its end, on the earlier's line,
-        // and it is left out too (kept, the sections split the two along their common line, the
-        // later pass's side flat where its force has faded).
+        // beyond its end the earlier is the nearer, so a later pass seen past that end (its
+        // closest point the path's end, on the earlier's line) is left out too. (Until 2026-11-30
+        // both ends kept the two, and a path that came back short of its start was split along
+        // its line, the later pass's side flat where its force had faded: the accuracy test's
+        // `shortback`.) Past the start the later pass may run on alone.
         size_t on = first;
         while (on < out.size() && !onOneLine(out[on].pp, pp) && !endOnLine(sc.path(), out[on].pp, pp)) ++on;
         if (on == out.size() || startWithin(sc.path(), sp.uv, r))

@@ -942,24 +942,21 @@ class Tracer {
     PathPoint pp;
   };
 
-  // Whether two closest points of one path lie on one line: the same point and parallel or
-  // opposite tangents, within what float coordinates resolve (a few units in the last place).
-  static bool onOneLine(const PathPoint& a, const PathPoint& b) {
-    const float scale = 1.0f + std::max(std::max(std::fabs(a.point.x), std::fabs(a.point.y)),
-                                        std::max(std::fabs(b.point.x), std::fabs(b.point.y)));
-    const Vec2f d = a.point - b.point;
-    return std::max(std::fabs(d.x), std::fabs(d.y)) <= 5e-7f * scale &&
-           std::fabs(a.tangent.x * b.tangent.y - a.tangent.y * b.tangent.x) <= 1e-6f;
-  }
-  // Whether a later pass's closest point b is the path's end, lying on the line of an earlier
-  // pass's closest point a, their tangents parallel or opposite (as onOneLine): a path that comes
-  // back along its own line and ends there, seen past its end, where the earlier is the nearer.
-  static bool endOnLine(const ScratchPath& path, const PathPoint& a, const PathPoint& b) {
+  // Whether two closest points of one path lie on one line: parallel or opposite tangents, and
+  // the same point (or, with `anywhere_along`, b anywhere on a's line), within what float
+  // coordinates resolve (a few units in the last place).
+  static bool onOneLine(const PathPoint& a, const PathPoint& b, bool anywhere_along = false) {
     const float scale = 1.0f + std::max(std::max(std::fabs(a.point.x), std::fabs(a.point.y)),
                                         std::max(std::fabs(b.point.x), std::fabs(b.point.y)));
     const Vec2f d = b.point - a.point;
-    return b.s >= float(path.length()) && std::fabs(a.tangent.x * d.y - a.tangent.y * d.x) <= 5e-7f * scale &&
-           std::fabs(a.tangent.x * b.tangent.y - a.tangent.y * b.tangent.x) <= 1e-6f;
+    const float off = anywhere_along ? std::fabs(a.tangent.x * d.y - a.tangent.y * d.x) : std::max(std::fabs(d.x), std::fabs(d.y));
+    return off <= 5e-7f * scale && std::fabs(a.tangent.x * b.tangent.y - a.tangent.y * b.tangent.x) <= 1e-6f;
+  }
+  // Whether a later pass's closest point b is the path's end, on the line of an earlier pass's
+  // closest point a: a path that comes back along its own line and ends there, seen past its
+  // end, where the earlier is the nearer.
+  static bool endOnLine(const ScratchPath& path, const PathPoint& a, const PathPoint& b) {
+    return b.s >= float(path.length()) && onOneLine(a, b, true);
   }
   // Whether the path's start lies within r of p.
   static bool startWithin(const ScratchPath& path, Vec2f p, float r) {

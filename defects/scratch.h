@@ -38,6 +38,7 @@ struct PathPoint {
   float offset = 0;       // signed offset along B = W x T (> 0: left of the path)
   float beyond = 0;       // distance past the nearest end along the end tangent (0 between ends)
   int side() const { return offset >= 0 ? +1 : -1; }
+  int seg = -1;           // the path's segment it lies on (at a vertex: the one it was found on)
 };
 
 // A scratch path: a polyline with arc-length parameterisation. Cubic Bezier chains and circular
@@ -48,7 +49,10 @@ class ScratchPath {
   ScratchPath() = default;
   // At least two distinct points; repeated consecutive points are dropped. Throws
   // std::invalid_argument otherwise.
+  // A vertex that goes back along the line the path came on and ends within kRetraceSnap (mm)
+  // of it is put on that line (snapRetraces).
   static ScratchPath polyline(std::vector<Vec2d> pts);
+  static constexpr double kRetraceSnap = 1e-4;
   // A chain of cubic Bezier segments given by 3k+1 control points (k >= 1). Flattened by
   // recursive de Casteljau halving until both inner control points lie within max_chord_error
   // of the chord segment; by the convex-hull property every curve point is then within
@@ -68,6 +72,11 @@ class ScratchPath {
   // Throws std::invalid_argument when the clamped interval is empty.
   ScratchPath sub(double s0, double s1) const;
   Box2 bounds() const { return box_; }
+  // Whether segments i and j lie on one line, in the double coordinates: parallel or opposite
+  // within 1e-9 rad, and j's start on i's line within 1e-9 of the coordinates' magnitude. A path
+  // that goes exactly back over itself (or was put back on its line by snapRetraces) passes; the
+  // float segments of a short leg on a slanted line are a few 1e-6 rad off their line.
+  bool segmentsOnOneLine(size_t i, size_t j) const;
 
   // Closest point of the path to p. With a finite max_dist the path's segment grid is used
   // (Bosch §4 / digest §1.5.1: a uniform grid, here per path) and found = false when the path is
@@ -134,6 +143,8 @@ class ScratchPath {
   // bendsAround's kept vertices (indices in [a, b], the window's ends implied) made the same on
   // both passes of each stretch where the path goes exactly back over its own points.
   void keepRetracesAlike(size_t a, size_t b, std::vector<char>& keep) const;
+  // Puts a vertex that comes back within kRetraceSnap of its own line exactly on it.
+  void snapRetraces();
   void closestOnSegment(size_t i, Vec2f p, float& best_d2, size_t& best_i, float& best_t) const;
   // The corner of [b, e) nearest p within max_dist (the later on a tie), or null.
   static const Corner* nearestOf(const Corner* b, const Corner* e, Vec2d p, double max_dist);

@@ -942,21 +942,23 @@ class Tracer {
     PathPoint pp;
   };
 
-  // Whether two closest points of one path lie on one line: parallel or opposite tangents, and
-  // the same point (or, with `anywhere_along`, b anywhere on a's line), within what float
-  // coordinates resolve (a few units in the last place).
-  static bool onOneLine(const PathPoint& a, const PathPoint& b, bool anywhere_along = false) {
+  // Whether two closest points of one path lie on one line: parallel or opposite tangents (or
+  // their segments on one line in the path's double coordinates: a short leg's float tangent is a
+  // few 1e-6 rad off), and the same point (or, with `anywhere_along`, b anywhere on a's line),
+  // within what float coordinates resolve (a few units in the last place).
+  static bool onOneLine(const ScratchPath& path, const PathPoint& a, const PathPoint& b, bool anywhere_along = false) {
     const float scale = 1.0f + std::max(std::max(std::fabs(a.point.x), std::fabs(a.point.y)),
                                         std::max(std::fabs(b.point.x), std::fabs(b.point.y)));
     const Vec2f d = b.point - a.point;
     const float off = anywhere_along ? std::fabs(a.tangent.x * d.y - a.tangent.y * d.x) : std::max(std::fabs(d.x), std::fabs(d.y));
-    return off <= 5e-7f * scale && std::fabs(a.tangent.x * b.tangent.y - a.tangent.y * b.tangent.x) <= 1e-6f;
+    return off <= 5e-7f * scale && (std::fabs(a.tangent.x * b.tangent.y - a.tangent.y * b.tangent.x) <= 1e-6f ||
+                                    (a.seg >= 0 && b.seg >= 0 && path.segmentsOnOneLine(size_t(a.seg), size_t(b.seg))));
   }
   // Whether a later pass's closest point b is the path's end, on the line of an earlier pass's
   // closest point a: a path that comes back along its own line and ends there, seen past its
   // end, where the earlier is the nearer.
   static bool endOnLine(const ScratchPath& path, const PathPoint& a, const PathPoint& b) {
-    return b.s >= float(path.length()) && onOneLine(a, b, true);
+    return b.s >= float(path.length()) && onOneLine(path, a, b, true);
   }
   // Whether the path's start lies within r of p.
   static bool startWithin(const ScratchPath& path, Vec2f p, float r) {
@@ -997,7 +999,7 @@ class Tracer {
         // its line, the later pass's side flat where its force had faded: the accuracy test's
         // `shortback`.) Past the start the later pass may run on alone.
         size_t on = first;
-        while (on < out.size() && !onOneLine(out[on].pp, pp) && !endOnLine(sc.path(), out[on].pp, pp)) ++on;
+        while (on < out.size() && !onOneLine(sc.path(), out[on].pp, pp) && !endOnLine(sc.path(), out[on].pp, pp)) ++on;
         if (on == out.size() || startWithin(sc.path(), sp.uv, r))
           out.push_back({&sc, pp});
         else if (pp.s < out[on].pp.s)  // (the earlier of the two along the path stays)

@@ -486,6 +486,59 @@ TEST(ScratchPath, ATieBetweenPassesOnOneLineGoesToTheEarlier) {
   }
 }
 
+// A path typed back along its own line with rounded coordinates (the retraces fuzzer's four
+// decimals) is 1e-6 to 1e-4 rad off that line: its vertex is put on it, so that its passes tie as
+// an exact retrace does; farther off, or on along the line, the path is left as given.
+TEST(ScratchPath, APathBackNearlyAlongItsLineIsPutOnIt) {
+  auto round4 = [](Vec2d q) { return Vec2d(std::round(q.x * 1e4) / 1e4, std::round(q.y * 1e4) / 1e4); };
+  auto offLine = [](Vec2d a, Vec2d b, Vec2d e) {
+    const Vec2d d = b - a;
+    return std::fabs(d.x * (e.y - a.y) - d.y * (e.x - a.x)) / std::hypot(d.x, d.y);
+  };
+  Rng rng(38, Stream::Test);
+  int snapped = 0, later = 0;
+  const int layouts = 40;
+  for (int k = 0; k < layouts; ++k) {
+    const double ang = 2 * M_PI * rng.uniformD(), c = std::cos(ang), s = std::sin(ang);
+    const Vec2d o(10 + rng.uniformD(), 10 + rng.uniformD());  // (a 20 mm plate's chart)
+    auto at = [&](double x) { return round4(o + Vec2d(c * x, s * x)); };
+    // (Half of them back a short way: a leg of 0.03 to 0.33 mm, whose float direction is a few
+    // 1e-6 rad off the line however exactly its double points lie on it.)
+    const double turn = 0.2 + 1.3 * rng.uniformD();
+    const double back = k % 2 ? turn - 0.03 - 0.3 * rng.uniformD() : -4 * rng.uniformD();
+    const Vec2d a = at(-5), b = at(turn), e = at(back);
+    const ScratchPath p = ScratchPath::polyline({a, b, e});
+    const Vec2d e2 = p.points()[2];
+    ASSERT_EQ(p.points()[0].x, a.x);  // (the first leg stays as given)
+    ASSERT_EQ(p.points()[1].y, b.y);
+    EXPECT_LE(std::hypot(e2.x - e.x, e2.y - e.y), ScratchPath::kRetraceSnap);
+    EXPECT_LE(offLine(a, b, e2), 1e-14) << "layout " << k;
+    snapped += e2.x != e.x || e2.y != e.y;
+    // Every point beside the way back now takes the earlier pass, as on an exact retrace.
+    const Vec2d t = (b - a) * (1 / std::hypot(b.x - a.x, b.y - a.y));
+    const double s_turn = p.arcLengths()[1];
+    for (int j = 0; j < 50; ++j) {
+      const double u = back + (turn - back) * (0.05 + 0.9 * rng.uniformD()), v = 0.2 * (rng.uniformD() - 0.5);
+      const Vec2d q = o + Vec2d(c * u, s * u) + Vec2d(-t.y, t.x) * v;
+      later += p.closest(Vec2f(float(q.x), float(q.y)), 1.0f).s > s_turn;
+    }
+  }
+  EXPECT_GE(snapped, layouts / 2);  // (most rounded layouts are off their line)
+  EXPECT_EQ(later, 0) << "of " << layouts * 50 << " points beside the ways back";
+  // Farther off than kRetraceSnap: a path that comes back beside its line, as given.
+  const ScratchPath apart = ScratchPath::polyline({{10, 10}, {13, 11}, {11.5, 10.5 + 3e-4}});
+  EXPECT_EQ(apart.points()[2].y, 10.5 + 3e-4);
+  // On along its line (a straight path in rounded pieces), not back: as given.
+  const ScratchPath on = ScratchPath::polyline({{10, 10}, {13, 11.0001}, {16, 12.0001}});
+  EXPECT_EQ(on.points()[2].y, 12.0001);
+  // Back and forth twice: the second turn is put on the line too.
+  const ScratchPath twice = ScratchPath::polyline({round4({10, 10}), round4({13.33333, 11.11111}),
+                                                  round4({11.11111, 10.37037}), round4({12.9, 10.966667}),
+                                                  round4({10, 10})});
+  for (size_t i = 2; i < 5; ++i)
+    EXPECT_LE(offLine(twice.points()[0], twice.points()[1], twice.points()[i]), 1e-14) << "vertex " << i;
+}
+
 // A path that passes a point more than once has one branch per pass: a hairpin, a loop that
 // crosses itself, and a long curve against dense samples of it.
 TEST(ScratchPath, BranchesAreThePassesNearAPoint) {

@@ -397,8 +397,10 @@ Field buildSchema() {
                    false)),
       enumeration("curve", {"polyline", "bezier"}, "polyline",
                   "How `path_mm` makes the path: polyline = straight segments through the points (at "
-                  "least two distinct); bezier = a chain of cubic Bezier curves, 3k + 1 control points "
-                  "(k >= 1), each curve starting where the last ended."),
+                  "least two distinct; a point that goes back along the line the path came on and ends "
+                  "within 0.1 um of it is put exactly on it, so a path typed back over itself with "
+                  "rounded numbers retraces its way); bezier = a chain of cubic Bezier curves, 3k + 1 "
+                  "control points (k >= 1), each curve starting where the last ended."),
       num("curvature_per_mm", "1/mm", 0, 0, 1, "Curvature of a random scratch (its sign is random)."),
       num("force_kg", "kg", 1, 0, 1000, "Normal force on the tool, F_N (Bosch 2007 §3.2)."),
       num("hardness_hv", "kg/mm^2", 20, 0.1, 5000,

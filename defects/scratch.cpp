@@ -119,9 +119,11 @@ void ScratchPath::snapRetraces() {
       const Vec2d d = b - a;
       const double dd = dot(d, d);
       if (!(dd > 0) || (e.x == a.x && e.y == a.y) || (e.x == b.x && e.y == b.y)) continue;
-      if (!(dot(e - q, b - a) < 0)) continue;  // back along the line, not on along it
+      const double back = -dot(e - q, d) / std::sqrt(dd);  // how far back along the line (> 0)
       const double off = std::fabs(d.x * (e.y - a.y) - d.y * (e.x - a.x)) / std::sqrt(dd);
-      if (!(off > 0 && off <= kRetraceSnap)) continue;
+      // Back along the line (not on along it, nor a jog across it: within 0.1 rad of it), and
+      // near it.
+      if (!(back > 0 && off > 0 && off <= kRetraceSnap && off <= 0.1 * back)) continue;
       pts_[i] = a + d * (dot(e - a, d) / dd);
       on_a[i] = a;
       on_b[i] = b;
@@ -129,6 +131,9 @@ void ScratchPath::snapRetraces() {
       break;
     }
   }
+  // (A foot that rounds onto the vertex before it would leave a segment of no length.)
+  pts_.erase(std::unique(pts_.begin(), pts_.end(), [](const Vec2d& u, const Vec2d& v) { return u.x == v.x && u.y == v.y; }),
+             pts_.end());
 }
 
 const ScratchPath::Corner* ScratchPath::nearestOf(const Corner* b, const Corner* e, Vec2d p, double max_dist) {

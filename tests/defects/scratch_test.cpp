@@ -537,6 +537,12 @@ TEST(ScratchPath, APathBackNearlyAlongItsLineIsPutOnIt) {
                                                   round4({10, 10})});
   for (size_t i = 2; i < 5; ++i)
     EXPECT_LE(offLine(twice.points()[0], twice.points()[1], twice.points()[i]), 1e-14) << "vertex " << i;
+  // A jog of 10 nm across the line and 1e-16 back along it is not a way back: left as given (put
+  // on the line, it would leave a segment of no length).
+  const ScratchPath jog = ScratchPath::polyline({{0, 0}, {1, 0}, {0.9999999999999999, 1e-5}, {0.5, 0}});
+  EXPECT_EQ(jog.points()[2].y, 1e-5);
+  for (size_t i = 1; i < jog.points().size(); ++i)
+    EXPECT_GT(jog.arcLengths()[i], jog.arcLengths()[i - 1]) << "segment " << i;
 }
 
 // A path that passes a point more than once has one branch per pass: a hairpin, a loop that

@@ -484,6 +484,11 @@ void appendFan(const Groove& in, const Groove& like, Vec2d v, Vec2d tb, double t
     c.dom[0] = {e1, -(e1.x * v.x + e1.y * v.y)};
     c.dom[1] = {e2, -(e2.x * v.x + e2.y * v.y)};
     c.n_dom = 2;
+    // (The two halves meet along the first leg's line, where their heights differ for an
+    // asymmetric profile by a profile's worth along it: not a max of linear functions, so the
+    // three samples per edge of Surface::build's step test can miss where it rises.)
+    c.has_split = on_one_line;
+    if (on_one_line) c.split = {na, -(na.x * v.x + na.y * v.y)};
     parts.push_back(c);
   }
 }
@@ -1087,6 +1092,11 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   };
   thread_local std::vector<EndLine> end_lines;
   end_lines.clear();
+  auto addEndLine = [&](double t0, Vec2d tdir, double te) {
+    for (const EndLine& el : end_lines)
+      if (el.t0 == t0 && el.tdir.x == tdir.x && el.tdir.y == tdir.y && el.te == te) return;
+    end_lines.push_back({t0, tdir, te});
+  };
   for (size_t gi = 0; gi < grooves.size(); ++gi)
     for (size_t q = 0; q < (grooves[gi].parts ? grooves[gi].parts->size() : 1); ++q) {
       const Groove& g = grooves[gi].parts ? (*grooves[gi].parts)[q] : grooves[gi];
@@ -1096,14 +1106,11 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
         tmin = std::min(tmin, t);
         tmax = std::max(tmax, t);
       }
+      if (g.has_split) addEndLine(g.split.c, g.split.a, 0.0);
       const double slack = 1e-6 * (1 + std::fabs(tmin) + std::fabs(tmax));
-      for (double te : {g.t_lo, g.t_hi}) {
-        if (!(std::fabs(te) < 1e29 && 1 + g.rho * te > 1e-9 && te >= tmin - slack && te <= tmax + slack)) continue;
-        bool seen = false;
-        for (const EndLine& el : end_lines)
-          seen = seen || (el.t0 == g.t0 && el.tdir.x == g.tdir.x && el.tdir.y == g.tdir.y && el.te == te);
-        if (!seen) end_lines.push_back({g.t0, g.tdir, te});
-      }
+      for (double te : {g.t_lo, g.t_hi})
+        if (std::fabs(te) < 1e29 && 1 + g.rho * te > 1e-9 && te >= tmin - slack && te <= tmax + slack)
+          addEndLine(g.t0, g.tdir, te);
     }
   std::vector<Piece> leaning;  // appended to pieces_ at the end
   for (size_t pi = 0; pi < n_flat; ++pi)
@@ -1117,8 +1124,9 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
       // Is there a step anywhere along the edge? The composite jumps only where a groove's cut
       // (its height below the base) gives way to others' pile-ups, and across abrupt ends. On the
       // first kind of edge the heights beyond are the largest of linear functions along it,
-      // convex, so higher than the piece somewhere only if at an end; on an abrupt end line the
-      // heights beyond can be anything, so the pieces beyond are always looked at.
+      // convex, so higher than the piece somewhere only if at an end; on an abrupt end line, and
+      // on a half turn's split line (Groove::split), the heights beyond can be anything, so the
+      // pieces beyond are always looked at.
       bool step = false;
       for (double f : {kStep / len, 0.5, 1 - kStep / len}) {
         const Vec2d q = e0 + t * f;

@@ -104,6 +104,11 @@ struct Groove {
   const std::vector<Groove>* parts = nullptr;
   HalfPlane dom[kMaxDom];
   int n_dom = 0;
+  // A line (split.a . p + split.c = 0) across which the surface may step anywhere along it: the
+  // first leg's line beyond a half turn, where the cap takes the profile's two sides (appendFan).
+  // Surface::build looks for walls along every piece edge on it, as on an abrupt end's line.
+  bool has_split = false;
+  HalfPlane split;
 };
 
 // The parts of a groove that turns a corner at the point where `in` ends and `out` starts: `in`

@@ -547,6 +547,74 @@ TEST(GrooveArea, AHalfTurnsCapTakesEachSideOfAnAsymmetricProfile) {
   }
 }
 
+// Beyond a half turn the cap's two halves meet along the first leg's line with heights that differ
+// by a profile's worth along it (P(r) on one side, P(-r) on the other): where the tilted tool's two
+// pile-ups reach unlike distances, one side is flat where the other rises. The walls there are
+// looked for along the whole line (Groove::split); with the three samples per edge that other
+// edges take, the flat side's long edge missed the rise, and rays from it towards the line passed
+// through the missing wall: 0.29 of a footprint's rays met the surface where 0.74 do. The share of
+// each footprint's rays that meet the surface, against rays marched through the surface's heights
+// (those that leave the region count as escaped, as in scatter).
+TEST(GrooveArea, AHalfTurnsStepHasItsWalls) {
+  static const std::vector<Vec2d> lopsided = {{-0.09, 0}, {-0.075, 0.008}, {-0.06, 0}, {0.005, -0.04},
+                                              {0.035, 0}, {0.045, 0.004}, {0.055, 0}};
+  const Vec2d v(0.0, 0.0), ta = dirOf(10), tb = dirOf(190);
+  auto [a, b] = legs(v, ta, tb);
+  a.pts = b.pts = &lopsided;
+  std::vector<Groove> parts;
+  ASSERT_TRUE(cornerParts(a, b, 15 * M_PI / 180, parts));
+  const double R = 0.3;
+  Surface s;
+  ASSERT_TRUE(s.build(rect(-R, -R, R, R), {ofParts(parts)}));
+  double worst = 0;
+  int compared = 0;
+  for (Vec2d c : {Vec2d(0.05, 0.02), Vec2d(0.05, -0.02), Vec2d(0.04, 0.05), Vec2d(0.04, -0.05), Vec2d(0.07, 0.0)}) {
+    const Poly fp = rect(c.x - 0.01, c.y - 0.01, c.x + 0.01, c.y + 0.01);
+    const std::vector<Portion> vis = s.visible(fp, {0, 0, 1});
+    for (double az = 0; az < 360; az += 30)
+      for (double el : {10.0, 30.0}) {
+        const double ca = std::cos(az * M_PI / 180), sa = std::sin(az * M_PI / 180), ce = std::cos(el * M_PI / 180);
+        const Vec3d d = unit({ca * ce, sa * ce, std::sin(el * M_PI / 180)});
+        double facing = 0, hit = 0;
+        for (const Portion& p : vis) {
+          const Vec3d n = s.pieces()[size_t(p.piece)].plane.normal();
+          if (n.x * d.x + n.y * d.y + n.z * d.z <= 0) continue;
+          facing += p.weight;
+          hit += p.weight - s.scatter(p, d).escaped;
+        }
+        const int g = 40;
+        double marched_facing = 0, marched_hit = 0;
+        for (int j = 0; j < g; ++j)
+          for (int i = 0; i < g; ++i) {
+            const Vec2d p(c.x - 0.01 + 0.02 * (i + 0.5) / g, c.y - 0.01 + 0.02 * (j + 0.5) / g);
+            const int k = pieceAt(s, p);
+            ASSERT_GE(k, 0);
+            const Piece& P = s.pieces()[size_t(k)];
+            const Vec3d n = P.plane.normal();
+            if (n.x * d.x + n.y * d.y + n.z * d.z <= 0) continue;
+            marched_facing += 1;
+            const double z = P.plane.at(p) + 1e-7;
+            for (double t = 1e-4; t < 1; t += 1e-4) {
+              const Vec2d q(p.x + d.x * t, p.y + d.y * t);
+              const double zr = z + d.z * t;
+              if (zr > 0.02 || std::fabs(q.x) > R || std::fabs(q.y) > R) break;
+              if (zr < s.heightAt(q) - 1e-7) {
+                marched_hit += 1;
+                break;
+              }
+            }
+          }
+        if (!(facing > 0.2 && marched_facing > 0)) continue;
+        ++compared;
+        worst = std::max(worst, std::fabs(hit / facing - marched_hit / marched_facing));
+        EXPECT_NEAR(hit / facing, marched_hit / marched_facing, 0.05)
+            << "footprint at " << c.x << ", " << c.y << ", direction azimuth " << az << " elevation " << el;
+      }
+  }
+  std::printf("[          ] %d footprints and directions, hit shares off by at most %.3f\n", compared, worst);
+  EXPECT_GT(compared, 50);
+}
+
 // A path that turns at several corners within the region: a U-turn made of two corners, a hook,
 // a zigzag, three corners in a row. chainParts gives the explicit geometry's surface (the profile
 // at the signed distance to the path's closest point) within the fans' bound, as

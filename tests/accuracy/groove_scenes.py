@@ -321,18 +321,8 @@ LAYOUTS["shortback"] = """
 # back ends 3 nm off the way out's line, 3e-6 rad (seen at 1.5 degrees). Put on that line when
 # the path is built (ScratchPath::polyline, docs/grooves.md, "Nearly one line"), it is the
 # shortback layout to within 3 nm.
-LAYOUTS["nearline"] = """
-  - type: scratch
-    count: 1
-    pattern: path
-    curve: polyline
-    center: [0.5, 0.5]
-    path_mm: [-4.9657, -0.3683, 0.3492, -0.1024, -0.6043, -0.1501]
-    force_kg: 0.4
-    hardness_hv: 20
-    perturbation: 0
-    pileup: 0.88
-"""
+LAYOUTS["nearline"] = LAYOUTS["shortback"].replace("-0.15010280720239327]", "-0.1501]")
+assert LAYOUTS["nearline"] != LAYOUTS["shortback"]
 
 # A scratch given point by point that goes back and forth: three 10 mm legs 0.1 mm apart at the
 # centre (the middle one tilted by 0.57 degrees), turning by about 179.4 degrees 5 mm either side,

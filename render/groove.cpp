@@ -677,6 +677,26 @@ Scatter scatter(const Section& s, const Portion& p, const Footprint& fp, Vec2d d
   return out;
 }
 
+bool castInto(const Section& s, Vec2d P, Vec2d d, int& facet, double& t) {
+  // Every facet is tested: this runs for the few rays that leave a polygon region downwards, and
+  // firstHit's ordered scan needs a start on a facet.
+  double best = kInf;
+  facet = -1;
+  for (size_t j = 0; j < s.facets(); ++j) {
+    if (!(dot(d, s.normal(j)) < 0)) continue;  // its back, or along it
+    const Vec2d A = s.pts[j], e = s.pts[j + 1] - s.pts[j];
+    const double den = cross(d, e);
+    if (den == 0) continue;
+    const Vec2d AP = A - P;
+    const double u = cross(AP, d) / den, r = cross(AP, e) / den;
+    if (!(u >= 0 && u <= 1) || !(r >= 0 && r < best)) continue;
+    best = r;
+    facet = int(j);
+    t = u;
+  }
+  return facet >= 0;
+}
+
 Scatter scatterInside(const Section& s, const Portion& p, const Footprint& fp, Vec2d d_bw) {
   thread_local Section m;
   m.pts = s.pts;

@@ -143,4 +143,11 @@ Scatter scatterInside(const Section& s, const Portion& p, const Footprint& fp, V
 // The point of facet k at parameter t.
 Vec2d pointOn(const Section& s, int k, double t);
 
+// Where the ray from point P along d (BW plane) first meets the front of a facet: its index and the
+// parameter t of the hit on it. False when it meets none (a ray that rises away). P is meant to lie
+// in the open space above the section; from inside the solid the backs of the facets are passed
+// through. The area sampling hands rays that leave its region down a groove to that groove's
+// section this way (the integrator's beyondRegion).
+bool castInto(const Section& s, Vec2d P, Vec2d d, int& facet, double& t);
+
 }  // namespace dg::groove

@@ -604,6 +604,42 @@ TEST(Groove, ScatterInsideMatchesBruteForce) {
   EXPECT_GT(hits_seen, 1000);  // rays do meet the section again from inside
 }
 
+// castInto(): a ray from a point in the open space above the section (where the area sampling
+// hands on the rays that leave its region down a groove) meets the facet that a brute-force cast
+// meets first, at the point where it meets it; one that meets nothing is reported so.
+TEST(Groove, CastIntoMeetsTheFirstFacetOnTheRay) {
+  Rand rnd(23);
+  int met = 0, missed = 0;
+  for (int c = 0; c < 400; ++c) {
+    const Footprint fp = randomFootprint(rnd);
+    const Scene sc = randomScene(rnd, fp);
+    for (int i = 0; i < 20; ++i) {
+      const double b = rnd(sc.sec.pts.front().x, sc.sec.pts.back().x);
+      const Vec2d P{b, heightAt(sc.sec.pts, b) + rnd(1e-4, 0.3)};
+      const Vec2d d = unitAngle(rnd(-3.1, 3.1));
+      int facet = -1;
+      double t = -1;
+      const bool hit = castInto(sc.sec, P, d, facet, t);
+      const int want = castRay(sc.sec, P, d, -1);
+      ASSERT_EQ(hit, want >= 0) << c << " " << i;
+      if (!hit) {
+        ++missed;
+        continue;
+      }
+      ++met;
+      EXPECT_EQ(facet, want) << c << " " << i;
+      ASSERT_GE(t, 0.0);
+      ASSERT_LE(t, 1.0);
+      const Vec2d q = pointOn(sc.sec, facet, t) - P;
+      EXPECT_NEAR(cross(q, d), 0.0, 1e-9) << c << " " << i;  // on the ray,
+      EXPECT_GT(dot(q, d), 0.0) << c << " " << i;            // ahead of its start,
+      EXPECT_LT(dot(d, sc.sec.normal(size_t(facet))), 0.0);  // on the facet's front
+    }
+  }
+  EXPECT_GT(met, 3000);
+  EXPECT_GT(missed, 1000);  // rising rays leave
+}
+
 TEST(Groove, PointFootprintLightAndScatter) {
   // With a point footprint the seen portion is a single point carrying weight 1: it is lit or not
   // as a whole, and one ray carries its reflection.

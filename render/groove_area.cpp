@@ -912,6 +912,9 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   walls_.clear();
   grooves_ = grooves;
   parts_indexed_ = false;
+  region_lo_ = Vec2d(1e300, 1e300);
+  region_hi_ = Vec2d(-1e300, -1e300);
+  region.extend(region_lo_, region_hi_);
   if (grooves.size() > kMaxGrooves) return false;
   indexParts(region);
   struct Cell {
@@ -1484,7 +1487,47 @@ Hits Surface::scatter(const Portion& p, Vec3d d) const {
     h.hits.push_back(std::move(hit));
   }
   h.escaped = p.density * area(rest);
+  if (!(d.z > 0) && h.escaped > 0) {
+    // The centroid of the rest: each fragment's, by area (fan triangles from its first vertex).
+    Vec2d c(0, 0);
+    double a = 0;
+    for (const Poly& f : rest)
+      for (int i = 1; i + 1 < f.n; ++i) {
+        const Vec2d v0 = f.v[0], v1 = f.v[size_t(i)], v2 = f.v[size_t(i) + 1];
+        const double t = 0.5 * cross(v1 - v0, v2 - v0);
+        c = c + (v0 + v1 + v2) * (t / 3.0);
+        a += t;
+      }
+    if (a > 0) h.escaped_at = c * (1.0 / a);
+  }
   return h;
+}
+
+const Groove* Surface::leaving(Vec3d o, Vec3d d, Vec3d& at) const {
+  // The least s > 0 at which o + s d crosses the box's boundary (o inside it).
+  double s = 1e300;
+  if (d.x > 0) s = std::min(s, (region_hi_.x - o.x) / d.x);
+  if (d.x < 0) s = std::min(s, (region_lo_.x - o.x) / d.x);
+  if (d.y > 0) s = std::min(s, (region_hi_.y - o.y) / d.y);
+  if (d.y < 0) s = std::min(s, (region_lo_.y - o.y) / d.y);
+  if (!(s < 1e300)) return nullptr;
+  s = std::max(s, 0.0);
+  at = Vec3d(o.x + s * d.x, o.y + s * d.y, o.z + s * d.z);
+  const Vec2d p(at.x, at.y);
+  const Groove* best = nullptr;
+  double best_u = 1e300;
+  for (size_t gi = 0; gi < grooves_.size(); ++gi) {
+    const Groove* q = grooves_[gi].parts ? partOf(gi, p) : &grooves_[gi];
+    if (!q) continue;
+    const double t = q->t0 + q->tdir.x * p.x + q->tdir.y * p.y, r = 1 + q->rho * t;
+    if (t < q->t_lo || t > q->t_hi || !(r > 0)) continue;
+    const double u = std::fabs(q->b0 + q->bdir.x * p.x + q->bdir.y * p.y) / r;  // in the profile's units
+    if (u < best_u) {
+      best_u = u;
+      best = q;
+    }
+  }
+  return best;
 }
 
 const Surface& Surface::mirrored() const {

@@ -232,6 +232,9 @@ struct Portion {
 struct Hits {
   std::vector<Portion> hits;  // weights: shares of the portion's weight
   double escaped = 0;         // the share that leaves the surface
+  // For a direction that does not rise (d.z <= 0), where the escaped share leaves the portion:
+  // the centroid of its fragments. Such rays leave the region sideways (Surface::leaving).
+  Vec2d escaped_at{0, 0};
 };
 
 class Surface {
@@ -275,6 +278,13 @@ class Surface {
   Hits scatterInside(const Portion& p, Vec3d d) const;
   // Fragments dropped at the cap so far (diagnostics and tests).
   mutable size_t overflow = 0;
+  // Where the ray from o along d leaves the region (its box) sideways: the crossing with the
+  // box's boundary (`at`, with its height on the ray), and the groove whose centre line is nearest
+  // there among those that exist at that point (for a groove of parts, the part whose domain holds
+  // it), whose channel the ray runs on in. Null where no groove exists there, or d has no
+  // horizontal part. A ray that meets no piece and does not rise leaves this way: the explicit
+  // geometry's meets the groove farther along (the integrator hands it to that groove's section).
+  const Groove* leaving(Vec3d o, Vec3d d, Vec3d& at) const;
 
   // A vertical wall where the composite steps: a groove cutting below the base next to another's
   // pile-up, or a groove that ends before its cross-section has faded out. The quad over the
@@ -325,6 +335,7 @@ class Surface {
   void candidates(const Plane& P, double den, Vec3d d, Vec2d lo, Vec2d hi, std::vector<size_t>& out) const;
   std::vector<Wall> walls_;
   std::vector<Groove> grooves_;
+  Vec2d region_lo_{0, 0}, region_hi_{0, 0};  // the box of the region build() was given
   // The parts of a groove made of parts (a chain of bends holds hundreds) that can hold a point
   // of the region: each part's domain, its lines moved out by kPartMargin, clipped to the region
   // grown by it, as a box grown by it too, and a kPartBins x kPartBins grid over the grown region

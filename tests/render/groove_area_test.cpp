@@ -1315,6 +1315,66 @@ TEST(GrooveArea, BuildRefusesPastItsCaps) {
   EXPECT_LT(s.pieces().size(), Surface::kMaxPieces / 2);
 }
 
+// Rays that leave a portion along the groove, a little down, meet nothing within a small region:
+// scatter() says where they leave the portion (the escaped fragments' centroid), and leaving()
+// where they cross the region's boundary, at their height on the ray, below the base, and the
+// groove whose channel they are in there. The integrator hands them on to that groove's section.
+TEST(GrooveArea, ARayThatLeavesTheRegionDownAGrooveFindsIt) {
+  const std::vector<Groove> gs = crossing();
+  Surface s;
+  const double R = 0.08;
+  ASSERT_TRUE(s.build(rect(-R, -R, R, R), gs));
+  const Poly fp = rect(-0.01, -0.01, 0.01, 0.01);
+  // Along groove 0 (t = x), off the wall under the footprint (its -b side faces -y) towards the
+  // other one, and slightly down.
+  const Vec3d d = unit({1.0, -0.08, -0.02});
+  int handed = 0;
+  for (const Portion& p : s.visible(fp, {0, 0, 1})) {
+    const Piece& P = s.pieces()[size_t(p.piece)];
+    const Vec3d n = P.plane.normal();
+    if (!(n.x * d.x + n.y * d.y + n.z * d.z > 0)) continue;
+    const Hits h = s.scatter(p, d);
+    if (!(h.escaped > 1e-9)) continue;
+    // The centroid lies within the portion's fragments' box.
+    Vec2d lo(1e300, 1e300), hi(-1e300, -1e300);
+    for (const Poly& f : p.frags) f.extend(lo, hi);
+    EXPECT_GE(h.escaped_at.x, lo.x - 1e-12);
+    EXPECT_LE(h.escaped_at.x, hi.x + 1e-12);
+    EXPECT_GE(h.escaped_at.y, lo.y - 1e-12);
+    EXPECT_LE(h.escaped_at.y, hi.y + 1e-12);
+    const Vec3d o(h.escaped_at.x, h.escaped_at.y, P.plane.at(h.escaped_at));
+    Vec3d at;
+    const Groove* q = s.leaving(o, d, at);
+    ASSERT_NE(q, nullptr);
+    EXPECT_EQ(q->id, 0);
+    // On the boundary x = R, on the ray.
+    EXPECT_NEAR(at.x, R, 1e-12);
+    const double sr = (at.x - o.x) / d.x;
+    EXPECT_NEAR(at.y, o.y + sr * d.y, 1e-12);
+    EXPECT_NEAR(at.z, o.z + sr * d.z, 1e-12);
+    // Below the base, in groove 0's channel, and above the surface there: the ray from the centroid
+    // did pass over everything on its way out.
+    EXPECT_LT(at.z, 0.0);
+    EXPECT_GT(at.z, composite(gs, {at.x, at.y}) - 1e-9);
+    for (double u = 1e-4; u < sr; u += 1e-4)
+      ASSERT_GT(o.z + 1e-6 + u * d.z, composite(gs, {o.x + u * d.x, o.y + u * d.y}) - 1e-7) << u << " of " << sr;
+    ++handed;
+  }
+  EXPECT_GT(handed, 0);
+  // A ray with no horizontal part leaves no way sideways.
+  Vec3d at;
+  EXPECT_EQ(s.leaving({0, 0, -0.01}, {0, 0, -1}, at), nullptr);
+  // Past a groove's end nothing of it is there: a ray along the tapered end leaves the region
+  // beyond it (t_hi = 0.2) with no groove to hand on to.
+  Surface e;
+  const std::vector<Groove> end = taperedEnd();
+  ASSERT_TRUE(e.build(rect(-0.4, -0.4, 0.4, 0.4), end));
+  EXPECT_EQ(e.leaving({0.0, 0.0, -0.01}, unit({1.0, 0.0, -0.01}), at), nullptr);
+  EXPECT_NEAR(at.x, 0.4, 1e-12);
+  ASSERT_NE(e.leaving({0.0, 0.0, -0.01}, unit({-1.0, 0.0, -0.01}), at), nullptr);
+  EXPECT_NEAR(at.x, -0.4, 1e-12);
+}
+
 // One straight groove with no end: the polygons give what 1-D line sampling gives, facet by
 // facet (the "isolated and general method agree where both apply" test of digest §7).
 TEST(GrooveArea, AgreesWithLineSamplingOnASingleGroove) {

@@ -1920,9 +1920,10 @@ class Tracer {
     // footprint's box enlarged by `enlarge`. Where its pieces pass the cap (many grooves close
     // together, cut pile-ups), the reach toward the lights is halved, then quartered, before the
     // nearest grooves alone (below) and the blend are used: a shadow cast from farther is lost,
-    // and a ray reflected out of the region leaves the grooves, but the crossing itself is still
-    // integrated exactly. The reach toward the viewer (`view_reach`) is always kept, so what
-    // hides the footprint is never lost. A smaller region also leaves out the grooves that do not
+    // and a ray reflected up out of the region leaves the grooves (one going down goes on in a
+    // single groove's section, beyondRegion), but the crossing itself is still integrated
+    // exactly. The reach toward the viewer (`view_reach`) is always kept, so what hides the
+    // footprint is never lost. A smaller region also leaves out the grooves that do not
     // reach it (they add no piece), which counts for the cap of grooves per footprint. On the
     // accuracy test's `dense` scene (6 + 6 crossing scratches under the bar light) no footprint
     // falls back any more, and the pixels >= 10 went from 2.27% to 0.02% (docs/grooves.md, "Cost
@@ -2205,6 +2206,71 @@ class Tracer {
       p.density /= wsum;
     }
     return shadeLevel(geo, top, portions, wo_w, Rgb(1.0f), 0, ls, rng, nrays);
+  }
+
+  // Rays from a footprint's portion along d that meet nothing of its surface and do not rise
+  // (sc.escaped, d not up): only the polygons' region is bounded, so only there do they occur
+  // (LineGeometry's sections reach far past any footprint, and rays that leave them are dropped).
+  Rgb beyondRegion(const LineGeometry&, const Material&, const groove::Portion&, Vec3f, const groove::Scatter&, Rgb,
+                   int, const LightSamples&, Rng&, uint64_t&) const {
+    return Rgb(0.0f);
+  }
+  // Under the polygons they leave the square region sideways, below the pile-ups' tops, most of
+  // them down a groove's channel: seen very close, where the region is small against the groove,
+  // the steep walls of a tilted tool's half turn sent half the weight of some footprints' directions
+  // that way (docs/grooves.md, "A half turn's step, seen very close"). The explicit geometry's ray
+  // meets that groove farther along. So the escaped share goes on as a point portion of the 1-D
+  // section of the groove whose centre line is nearest where the rays leave (Surface::leaving):
+  // that groove alone, straight, at its scale there, in its own frame (Bosch §4.2.3), where the ray
+  // from the escaped fragments' centroid meets it, shaded at the next level. What that leaves out:
+  // other grooves beyond the region, the fade's slope, and the spread of the escaped rays over the
+  // fragments (one ray carries them all).
+  Rgb beyondRegion(const AreaGeometry& geo, const Material& top, const groove::area::Portion& p, Vec3f d,
+                   const groove::area::Hits& sc, Rgb beta, int level, const LightSamples& ls, Rng& rng,
+                   uint64_t& nrays) const {
+    namespace ga = groove::area;
+    const GrooveSet& gs = geo.gs;
+    const ga::Piece& P = gs.surface.pieces()[size_t(p.piece)];
+    const Vec3d dl = geo.local(d);
+    const Vec3d o(sc.escaped_at.x, sc.escaped_at.y, P.plane.at(sc.escaped_at));
+    Vec3d at;
+    const ga::Groove* q = gs.surface.leaving(o, dl, at);
+    if (!q) return Rgb(0.0f);
+    const Vec2d a2(at.x, at.y);
+    const double r = 1 + q->rho * (q->t0 + dot(q->tdir, a2));
+    const double b = q->b0 + dot(q->bdir, a2);
+    // The section: the groove's profile at scale r, centred on its line (offset 0), with the base
+    // plane around it.
+    thread_local std::vector<Vec2d> pts;
+    pts.assign(q->pts->begin(), q->pts->end());
+    for (Vec2d& v : pts) v = v * r;
+    groove::PlacedProfile placed;
+    placed.pts = &pts;
+    placed.layer = q->layer;
+    // Its frame: B along the groove's b, W the surface's, T = B x W (so that B = W x T); F on its
+    // centre line beside the point where the rays leave.
+    thread_local GrooveSet hs;
+    hs.B = normalize(gs.T * float(q->bdir.x) + gs.B * float(q->bdir.y));
+    hs.W = gs.W;
+    hs.T = cross(hs.B, hs.W);
+    const Vec2d c2 = a2 - q->bdir * b;
+    hs.F = gs.F + gs.T * float(c2.x) + gs.B * float(c2.y);
+    hs.one_material = gs.one_material;
+    hs.fp = groove::Footprint{0.0, 0.0};  // (a point portion: its weights do not use it)
+    hs.section = groove::merge({placed}, sectionExtent(std::fabs(b)));
+    int facet = -1;
+    double t = 0;
+    if (!groove::castInto(hs.section, Vec2d(b, at.z), Vec2d(dot(Vec2d(dl.x, dl.y), q->bdir), dl.z), facet, t))
+      return Rgb(0.0f);
+    groove::Portion hit;
+    hit.facet = facet;
+    hit.t0 = hit.t1 = t;
+    hit.weight = sc.escaped;
+    thread_local std::vector<groove::Shadowing> shadow;
+    shadow.resize(ls.size());
+    for (size_t i = 0; i < ls.size(); ++i)
+      shadow[i].reset(hs.section, Vec2d(dot(ls[i].wl, hs.B), dot(ls[i].wl, hs.W)));
+    return shadeLevel(LineGeometry{hs, hs.section, shadow}, top, {hit}, -d, beta, level + 1, ls, rng, nrays);
   }
 
   // A direction drawn from a footprint's portions (drawDirection).
@@ -2593,6 +2659,10 @@ class Tracer {
                           1 + level, rng, nrays, nl_eff, nl_env, direct_scale * float(nb) / nbm, nullptr, 0, nullptr,
                           ls.guides);
       }
+      // Rays that leave a polygon region downwards (beyondRegion): their next level's direct
+      // light is these directions' alone (lobeDirect and the chain follow only the hits).
+      if (!last && sc.escaped > 0 && !(dot(d, gs.W) > 0))
+        L += beyondRegion(geo, top, p, d, sc, beta_next, level, ls, rng, nrays);
       // The next level's direct light is shared with the direct-only directions when they were
       // followed there (lobeDirect), deeper levels' is not.
       if (!last && !sc.hits.empty())

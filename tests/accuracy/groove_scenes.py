@@ -324,6 +324,26 @@ LAYOUTS["shortback"] = """
 LAYOUTS["nearline"] = LAYOUTS["shortback"].replace("-0.15010280720239327]", "-0.1501]")
 assert LAYOUTS["nearline"] != LAYOUTS["shortback"]
 
+# The retraces fuzzer's r2_4 cut short: a chord out and exactly back, by a tool tilted 7 degrees
+# (2.83 kg on HV 30: 0.044 mm deep), its half turn at the view's centre, to be seen from very close
+# (a third of a millimetre across). There the polygons' square region is small against the groove,
+# and the steep walls of the cap beyond the vertex send much of their light down the groove, out of
+# the region (docs/grooves.md, "A half turn's step, seen very close").
+LAYOUTS["halftip"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5, 0.5]
+    path_mm: [2.6753, -2.7562, 0.0080, -0.0144, 2.6753, -2.7562]
+    force_kg: 2.83
+    hardness_hv: 30
+    perturbation: 0
+    tool_tilt_deg: 7
+    tool_tilt_azimuth_deg: 302
+    pileup: 0.83
+"""
+
 # A scratch given point by point that goes back and forth: three 10 mm legs 0.1 mm apart at the
 # centre (the middle one tilted by 0.57 degrees), turning by about 179.4 degrees 5 mm either side,
 # out of view (seen at 1.5 degrees). Their 0.19 mm wide grooves overlap; each point takes the
@@ -468,6 +488,12 @@ LIGHTS = {
   - type: dome
     radiance: [0.04, 0.04, 0.04]
 """,
+    # An even sky alone: all the light a groove's walls pass on reaches them over bounces, which a
+    # close view of steep walls makes most of the image.
+    "dome": """
+  - type: dome
+    radiance: [0.5, 0.5, 0.5]
+""",
 }
 
 PARTS = {
@@ -501,9 +527,9 @@ def _bowed_regions(layout_text):
     return re.sub(r"region: \[([^\]]*)\]", move, layout_text)
 
 
-def _camera(part, fov_deg):
+def _camera(part, fov_deg, distance_mm=60):
     if part == "plate":
-        return "{fov_deg: %g, position: [0, 0, 60], target: [0, 0, 0]}" % fov_deg
+        return "{fov_deg: %g, position: [0, 0, %g], target: [0, 0, 0]}" % (fov_deg, distance_mm)
     import math
     ny = _BOW_Y / _BOW_R
     nz = math.sqrt(1 - ny * ny)
@@ -526,13 +552,15 @@ MATERIALS = {
 
 
 def config(layout, light, mode, spp, resolution=96, seed=11, noise_seed=0, roughness=0.15, fov_deg=5, part="plate",
-           material="aluminium", png16=False, scratched=True, count=None):
+           material="aluminium", png16=False, scratched=True, count=None, distance_mm=60):
     """noise_seed: 0 for the renders under test; references use another value so that their noise
     is independent of theirs (the same seed would give geometry at N spp the first N samples of the
     reference's). roughness: the aluminium's. png16: 16-bit PNGs, so that a comparison is not
     limited by 8-bit rounding (scripts/bench-grooves). scratched: False leaves the scratches out (the
     bare plate under the same lights and camera, which scripts/bench-grooves times). count: the
-    number of scratches of a one-group layout (scripts/bench-grooves --density), else the layout's."""
+    number of scratches of a one-group layout (scripts/bench-grooves --density), else the layout's.
+    distance_mm: the camera's height over the plate (plate only; the field of view is at least 1 degree: 20 mm
+    sees a third of a millimetre across)."""
     text = LAYOUTS[layout]
     if count is not None:
         import re
@@ -548,7 +576,7 @@ material: %s
 lights:%s
 camera: %s
 render: {resolution: [%d, %d], spp: %d, max_bounces: 4, scratches: %s, noise_seed: %d%s}
-defects:%s""" % (layout, light, seed, PARTS[part], mat, LIGHTS[light], _camera(part, fov_deg), resolution, resolution, spp,
+defects:%s""" % (layout, light, seed, PARTS[part], mat, LIGHTS[light], _camera(part, fov_deg, distance_mm), resolution, resolution, spp,
                  mode, noise_seed, ", png: 16" if png16 else "",
                  " []\n" if not scratched else text if part == "plate" else _bowed_regions(text))
 

@@ -191,10 +191,19 @@ struct SurfacePoint {
 // Offset for spawning rays off the surface, scaled with the magnitude of the coordinates.
 float rayEpsilon(Vec3f p) { return 1e-4f * std::max(1.0f, maxComponent(Vec3f(std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)))); }
 
+// Strata of a pixel for groove rendering: sx * sy = spp with sy the largest divisor <= sqrt(spp).
+void grooveStrata(int spp, int& sx, int& sy) {
+  sy = 1;
+  for (int d = 1; d * d <= spp; ++d)
+    if (spp % d == 0) sy = d;
+  sx = spp / sy;
+}
+
 class Tracer {
  public:
   Tracer(const RenderScene& s, const RenderSettings& st)
       : s_(s), st_(st), mesh_(s.part->mesh()), has_defects_(s.defects && !s.defects->empty()) {
+    grooveStrata(st.spp, strata_x_, strata_y_);
     if (has_defects_)
       for (auto& d : *s.defects) {
         needs_cavity_ |= d->needsCavity();
@@ -916,6 +925,7 @@ class Tracer {
     bool trimmed = false;        // `surface` holds only the grooves nearest the footprint (past the caps)
     bool capped = false;         // buildArea failed at the caps (not for want of a groove in reach)
     groove::area::Poly fp2;
+    double pixel_r = 0;  // the whole pixel's radius on the base plane (mm; fp2 is one stratum of it)
   };
 
   // The polygons' buffers (pieces, walls, the shadows cached per light) are kept from one
@@ -1386,6 +1396,25 @@ class Tracer {
   // caller); `span` is the arc range the groove covers. False where there is no corner, or the path
   // has faded out at the vertex.
   static constexpr double kCornerSector = 15.0 * M_PI / 180.0;
+  // A fan's sectors are planes, each with its own normal: seen so close that a 15-degree sector of
+  // a cap spans several pixels, a sharp light's reflection off the cap breaks into bands (a half
+  // turn seen from 20 mm at 1 degree, 3.6 micrometres per pixel, under the ring: 0.90% of pixels
+  // >= 10 at 64 spp; docs/grooves.md, "A half turn's step, seen very close"). So a sector is no
+  // wider than the angle over which its arc at the groove's edge (the legs' profiles' largest
+  // half-extent R) spans two pixels (2 x the pixel's diameter / R), and no narrower than
+  // kMinSector: the parts, cells and pieces grow with the sectors' number. The pixel, not the
+  // footprint (a stratum of it), so that the choice does not change with spp. For R = 0.13 mm it
+  // starts below 12 micrometres per pixel: the accuracy tests' and the fuzzers' views keep 15
+  // degrees, but for `halftip` (3.6 micrometres per pixel, 5 degrees).
+  static constexpr double kMinSector = 5.0 * M_PI / 180.0;
+  static double fanSector(const groove::area::Groove* legs, size_t n, const GrooveSet& gs) {
+    double R = 0;
+    for (size_t k = 0; k < n; ++k)
+      if (legs[k].pts)
+        for (const Vec2d& q : *legs[k].pts) R = std::max(R, std::fabs(q.x));
+    if (!(R > 0) || !(gs.pixel_r > 0)) return kCornerSector;
+    return std::clamp(4.0 * gs.pixel_r / R, kMinSector, kCornerSector);
+  }
   static constexpr size_t kMaxChain = 12;
   // A path's bends (ScratchPath::bendsAround) within kBendTol footprint radii of the path at the
   // footprint, and kBendGrowth mm more per mm away from it, at most kMaxBends of them. On a cubic
@@ -1468,7 +1497,8 @@ class Tracer {
     span = path.legSpan(*c);
     a.t_lo = (span.first - c->s) * mm;
     b.t_hi = (span.second - c->s) * mm;
-    if (!groove::area::cornerParts(a, b, kCornerSector, parts)) return false;
+    const groove::area::Groove ab[2] = {a, b};
+    if (!groove::area::cornerParts(a, b, fanSector(ab, 2, gs), parts)) return false;
     out = a;
     out.parts = &parts;
     return true;
@@ -1491,7 +1521,7 @@ class Tracer {
     thread_local std::vector<groove::area::Groove> legs;
     legs.clear();
     if (!chainLegs(sp, ng, id, cs, count, s_begin, s_end, chords, gs, mm, profiles, legs)) return false;
-    if (!groove::area::chainParts(legs, kCornerSector, bound, parts)) return false;
+    if (!groove::area::chainParts(legs, fanSector(legs.data(), legs.size(), gs), bound, parts)) return false;
     out = legs.front();
     out.parts = &parts;
     return true;
@@ -1565,6 +1595,10 @@ class Tracer {
     fp.push((a2 - a1) * 0.5);
     if (fp.area() < 0) std::reverse(fp.v, fp.v + fp.n);
     if (!(fp.area() > 1e-16)) return false;
+    {
+      const Vec2d p1 = a1 * double(strata_x_), p2 = a2 * double(strata_y_);
+      gs.pixel_r = 0.5 * std::max(std::hypot(p1.x + p2.x, p1.y + p2.y), std::hypot(p1.x - p2.x, p1.y - p2.y));
+    }
     Vec2d lo = fp.v[0], hi = fp.v[0];
     fp.extend(lo, hi);
     thread_local std::vector<Profile> profiles;
@@ -1777,7 +1811,8 @@ class Tracer {
             touch = ga::centreLinesWithin(run_legs[k], run_legs[m], r + w, w);
         }
       }
-      if (ok && touch && ga::chainParts(run_legs, kCornerSector, bound, run_parts[a], run_starts)) {
+      if (ok && touch &&
+          ga::chainParts(run_legs, fanSector(run_legs.data(), run_legs.size(), gs), bound, run_parts[a], run_starts)) {
         corner_g[a] = run_legs.front();
         corner_g[a].parts = &run_parts[a];
         corner_profile[a] = profiles_at;
@@ -1888,7 +1923,9 @@ class Tracer {
         if (k) many_starts.push_back(k);
         many_legs.push_back(grooves[many[k]]);
       }
-      if (!ga::chainParts(many_legs, kCornerSector, bound, many_parts[nmany], many_starts)) continue;
+      if (!ga::chainParts(many_legs, fanSector(many_legs.data(), many_legs.size(), gs), bound, many_parts[nmany],
+                          many_starts))
+        continue;
       grooves[a].parts = &many_parts[nmany++];
       segs[seg_at[a]] = grooves[a];
       for (size_t k = many.size() - 1; k >= 1; --k) drop(a, many[k]);  // (the others, last first)
@@ -2960,6 +2997,7 @@ class Tracer {
   // Whether camera hits and flat groove footprints guide their light samples (buildGuides).
   bool guided_ = false;
   float max_height_ = 0, max_depth_ = 0, max_half_ = 0;  // over all scratches (mm)
+  int strata_x_ = 1, strata_y_ = 1;  // a pixel's strata (grooveStrata): a camera hit's footprint is one
   float tan_light_max_ = 6.0f;  // cap on the shadow reach toward grazing lights (Bosch §4.2.1)
   std::vector<std::vector<int>> blockers_;  // findBlockers()
   int sub_count_ = 1;   // light-sample subsets at deeper groove levels (shadeLevel)
@@ -3024,11 +3062,8 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
   std::atomic<bool> part_in_view{false};
   const int K = std::max(1, st.coverage_grid);
   const int ninst = scene.defects ? int(scene.defects->size()) : 0;
-  // Strata for groove rendering: sx * sy = spp with sy the largest divisor <= sqrt(spp).
-  int sy = 1;
-  for (int d = 1; d * d <= st.spp; ++d)
-    if (st.spp % d == 0) sy = d;
-  const int sx = st.spp / sy;
+  int sx = 1, sy = 1;
+  grooveStrata(st.spp, sx, sy);
   const int spp_g = latticeGenerator(st.spp);
   // Groove shading: the pixel's camera samples share one lattice per light (PixelPattern::light).
   const int light_g = tracer.grooves_ && st.spp > 1 && st.groove_light_samples > 1

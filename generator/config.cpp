@@ -295,7 +295,15 @@ Field buildSchema() {
                   "needed); geometry = the explicit-geometry reference (the part re-meshed with the "
                   "cross-sections cut in, on any part; needs many samples, and memory: the door of "
                   "configs/scratched_door.yaml becomes 21 million triangles); normal_map = the "
-                  "slopes as a bump map without occlusion (the baseline of texture-based tools).")};
+                  "slopes as a bump map without occlusion (the baseline of texture-based tools)."),
+      num("geometry_cell_mm", "mm", 0, 0, 1,
+          "scratches: geometry only: the largest edge of the cut mesh's finest cells (the part's UV "
+          "chart is halved until they are no larger). 0 = automatic, the narrowest scratch's width / "
+          "16 (at least 0.0005 mm). Straight kinks are cut exactly at "
+          "any size; finer cells follow the curved ones (a corner's or a half turn's round cap) and "
+          "the change along a path more closely, for views of a few micrometres per pixel. The "
+          "mesh grows with the inverse square of the cell.",
+          false)};
   root.fields.push_back(ren);
 
   // defects
@@ -935,6 +943,17 @@ void crossChecks(const Value& root, const Parser& p) {
         !(l["inner_radius_mm"].num() < l["radius_mm"].num()))
       p.failAt(l["inner_radius_mm"].line, l["inner_radius_mm"].column,
                "'" + l.path + ".inner_radius_mm' must be smaller than radius_mm");
+  }
+  const Value& ren = root["render"];
+  if (ren.has("geometry_cell_mm") && !ren["geometry_cell_mm"].defaulted) {
+    const Value& gc = ren["geometry_cell_mm"];
+    if (ren["scratches"].str() != "geometry")
+      p.failAt(gc.line, gc.column,
+               "'render.geometry_cell_mm': only scratches: geometry reads geometry_cell_mm (render.scratches is " +
+                   ren["scratches"].str() + ")");
+    if (gc.num() != 0 && gc.num() < 0.0005)
+      p.failAt(gc.line, gc.column,
+               "'render.geometry_cell_mm': expected 0 (automatic) or at least 0.0005 mm, found " + gc.str());
   }
   bool has_scratches = false;
   for (const Value& d : root["defects"].items) has_scratches = has_scratches || d["type"].str() == "scratch";

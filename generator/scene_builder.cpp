@@ -708,6 +708,7 @@ Sample buildSample(const Dataset& ds, uint64_t seed, uint64_t index, bool check_
       ScratchGeometryStats st;
       ScratchGeometryOptions opt;
       opt.count_only = check_only;
+      opt.cell_mm = r["geometry_cell_mm"].num();
       opt.max_bytes = memoryLimit().bytes;  // taken before the cutting allocates anything
       TriangleMesh cut = scratchedMesh(ds.part->mesh(), scratches, opt, &st);
       if (!check_only) s.scene.part = std::make_shared<PartGeometry>(std::move(cut), ds.part->shell());

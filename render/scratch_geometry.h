@@ -24,9 +24,10 @@
 namespace dg {
 
 struct ScratchGeometryOptions {
-  // Edge of the finest cells (mm); 0 = automatic: the narrowest scratch's width / 16, at least
-  // 0.5 micrometre. Cells are cut along the kinks, so the size only bounds how well the variation
-  // along the path is followed (the cross-sections themselves are exact at any size).
+  // Largest edge of the finest cells (mm; render.geometry_cell_mm); 0 = automatic: the narrowest
+  // scratch's width / 16, at least 0.5 micrometre. Cells are cut along the kinks, so the size only
+  // bounds how well the variation along the path and the curved kinks of a corner's round cap
+  // are followed (straight kinks are exact at any size).
   double cell_mm = 0;
   size_t max_triangles = 40'000'000;  // refuse rather than exhaust memory
   // The memory the mesh may take at its peak, once it is rendered: its arrays, the renderer's

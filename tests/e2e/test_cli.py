@@ -418,6 +418,24 @@ defects:
         self.assertGreaterEqual(load_json(os.path.join(a, "samples", "000000.json"))["scratches"]["triangles"], 1000000)
         assert_same_tree(self, a, b)
 
+    def test_the_reference_takes_the_cell_it_is_given(self):
+        # render.geometry_cell_mm: the cut mesh's finest cells no larger than given (the chart is
+        # halved until they are), against the automatic width / 16; more triangles for finer cells.
+        d = work("geometry_cell")
+        cells = {}
+        for tag, cell in (("auto", None), ("fine", 0.0025)):
+            cfg = os.path.join(d, tag + ".yaml")
+            with open(cfg, "w") as f:
+                f.write(groove_scenes.config("halftip", "dome", "geometry", 1, resolution=16, fov_deg=1,
+                                             distance_mm=20, cell_mm=cell))
+            out = os.path.join(d, tag)
+            run("generate", cfg, "--out", out, "--quiet")
+            cells[tag] = load_json(os.path.join(out, "samples", "000000.json"))["scratches"]
+        self.assertGreater(cells["auto"]["cell_mm"], 0.005)  # the groove is about 0.2 mm wide
+        self.assertLessEqual(cells["fine"]["cell_mm"], 0.0025)
+        self.assertGreater(cells["fine"]["cell_mm"], 0.0025 / 2)
+        self.assertGreater(cells["fine"]["triangles"], 4 * cells["auto"]["triangles"])
+
     def test_noise_seed_changes_the_noise_only(self):
         # render.noise_seed: the same scene (placements, masks, annotations) with other noise.
         d = work("noise_seed")

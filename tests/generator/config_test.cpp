@@ -301,6 +301,30 @@ TEST(Config, CrossFieldRules) {
   EXPECT_NE(e.find("'defects[0].curve'"), std::string::npos) << e;
 }
 
+// render.geometry_cell_mm: read by the explicit-geometry reference only, 0 (automatic) or at least
+// the 0.5 micrometres the automatic cell stops at; each refusal names the place.
+TEST(Config, TheReferencesCellIsCheckedWhereItIsGiven) {
+  auto with = [](const std::string& render) { return std::string(kMinimal) + "render: {" + render + "}\n"; };
+  EXPECT_EQ(errorOf(with("scratches: geometry, geometry_cell_mm: 0.002")), "");
+  EXPECT_EQ(errorOf(with("scratches: geometry, geometry_cell_mm: 0")), "");
+  EXPECT_EQ(errorOf(with("scratches: groove")), "");  // the default (0) is not "given"
+  std::string e = errorOf(with("scratches: groove, geometry_cell_mm: 0.002"));
+  EXPECT_NE(e.find("test.yaml:8:47: 'render.geometry_cell_mm': only scratches: geometry reads geometry_cell_mm "
+                   "(render.scratches is groove)"),
+            std::string::npos)
+      << e;
+  e = errorOf(with("scratches: geometry, geometry_cell_mm: 0.0001"));
+  EXPECT_NE(e.find("test.yaml:8:49: 'render.geometry_cell_mm': expected 0 (automatic) or at least 0.0005 mm, "
+                   "found 0.0001"),
+            std::string::npos)
+      << e;
+  e = errorOf(with("scratches: geometry, geometry_cell_mm: 2"));
+  EXPECT_NE(e.find("'render.geometry_cell_mm': 2 is out of range; expected a value in [0, 1] mm"), std::string::npos)
+      << e;
+  e = errorOf(with("scratches: geometry, geometry_cell_mm: {uniform: [0.001, 0.002]}"));
+  EXPECT_NE(e.find("'render.geometry_cell_mm'"), std::string::npos) << e;
+}
+
 TEST(Config, DistributionsSampleInRangeAndAreRecorded) {
   std::string y = std::string(kMinimal) +
                   "material:\n  type: car_paint\n  flake_amount: {normal: {mean: 0.5, std: 2}}\n"

@@ -552,7 +552,7 @@ MATERIALS = {
 
 
 def config(layout, light, mode, spp, resolution=96, seed=11, noise_seed=0, roughness=0.15, fov_deg=5, part="plate",
-           material="aluminium", png16=False, scratched=True, count=None, distance_mm=60):
+           material="aluminium", png16=False, scratched=True, count=None, distance_mm=60, cell_mm=None):
     """noise_seed: 0 for the renders under test; references use another value so that their noise
     is independent of theirs (the same seed would give geometry at N spp the first N samples of the
     reference's). roughness: the aluminium's. png16: 16-bit PNGs, so that a comparison is not
@@ -560,7 +560,9 @@ def config(layout, light, mode, spp, resolution=96, seed=11, noise_seed=0, rough
     bare plate under the same lights and camera, which scripts/bench-grooves times). count: the
     number of scratches of a one-group layout (scripts/bench-grooves --density), else the layout's.
     distance_mm: the camera's height over the plate (plate only; the field of view is at least 1 degree: 20 mm
-    sees a third of a millimetre across)."""
+    sees a third of a millimetre across). cell_mm: the explicit geometry's finest cells
+    (render.geometry_cell_mm; other modes leave it out), for views so close that the automatic cell
+    spans pixels."""
     text = LAYOUTS[layout]
     if count is not None:
         import re
@@ -577,7 +579,8 @@ lights:%s
 camera: %s
 render: {resolution: [%d, %d], spp: %d, max_bounces: 4, scratches: %s, noise_seed: %d%s}
 defects:%s""" % (layout, light, seed, PARTS[part], mat, LIGHTS[light], _camera(part, fov_deg, distance_mm), resolution, resolution, spp,
-                 mode, noise_seed, ", png: 16" if png16 else "",
+                 mode, noise_seed, (", png: 16" if png16 else "") +
+                 (", geometry_cell_mm: %g" % cell_mm if cell_mm and mode == "geometry" else ""),
                  " []\n" if not scratched else text if part == "plate" else _bowed_regions(text))
 
 

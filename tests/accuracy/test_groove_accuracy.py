@@ -274,6 +274,26 @@ class GrooveAccuracy(unittest.TestCase):
         self.assertLess(st["pct_ge_10"], 0.1)
         self.assertLess(st["mean"], 0.2)
 
+    def test_halftip_ring(self):
+        """The same half turn under the ring light, against a reference with cells a quarter of the
+        automatic ones (render.geometry_cell_mm 0.0025): the automatic cells, 3 pixels wide here,
+        cannot follow the cap's round kinks and drew a bright rectangle where references with
+        finer cells agree on a wedge (0.84% of pixels >= 10 between the two). Until 2026-11-30
+        the groove renderer's 15-degree fan sectors broke that wedge into streaks: 0.977% of pixels
+        >= 10 (mean dE 0.847); now the sectors narrow with the pixel (the integrator's fanSector,
+        5 degrees here): 0.076% (0.554). Bounded at 0.2% and a mean dE of 0.7."""
+        st = self.check("halftip", "ring", fov_deg=1, distance_mm=20, cell_mm=0.0025)
+        self.assertLess(st["pct_ge_10"], 0.2)
+        self.assertLess(st["mean"], 0.7)
+
+    def test_halftip_bar(self):
+        """The same under the bar light (reference cells as under the ring): 1.584% (mean dE 1.133)
+        with 15-degree sectors, 0.206% (0.356) with sectors by the pixel. Bounded at 0.4% and a
+        mean dE of 0.6."""
+        st = self.check("halftip", "bar", fov_deg=1, distance_mm=20, cell_mm=0.0025)
+        self.assertLess(st["pct_ge_10"], 0.4)
+        self.assertLess(st["mean"], 0.6)
+
     def test_backforth_bar(self):
         """A scratch that goes back and forth past the view (groove_scenes.LAYOUTS["backforth"]:
         three legs 0.1 mm apart, their grooves overlapping) under the bar light. Until 2026-11-29

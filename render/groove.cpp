@@ -172,6 +172,21 @@ double sectionTop(const Section& sec) {
   return top;
 }
 
+// Where the ray P + s d crosses facet j's line within the facet (parameter u in [0, 1]): u and s.
+// False for a facet parallel to d (or of no length), or a crossing outside it.
+bool crossing(const Section& sec, size_t j, Vec2d P, Vec2d d, double& u, double& s) {
+  const Vec2d A = sec.pts[j], e = sec.pts[j + 1] - sec.pts[j];
+  const double den = cross(d, e);
+  if (den == 0) return false;
+  const Vec2d AP = A - P;
+  // Where the ray's line crosses the facet first: most facets are missed there, and the ray
+  // parameter is then not needed.
+  u = cross(AP, d) / den;
+  if (!(u >= 0 && u <= 1)) return false;
+  s = cross(AP, e) / den;
+  return true;
+}
+
 // First facet other than `skip` that the ray P + s d (s > 0) meets, P a point of facet `skip`.
 // Callers start rays from the interior of a facet away from every breakpoint, so no tolerance is
 // needed at vertices. The facets are in order of b, so a ray with d_b > 0 can only meet those after
@@ -182,16 +197,8 @@ Hit firstHit(const Section& sec, Vec2d P, Vec2d d, size_t skip, double top) {
   Hit best;
   // Facet j's crossing with the ray, kept when it is the nearest so far.
   auto test = [&](size_t j) {
-    const Vec2d A = sec.pts[j], e = sec.pts[j + 1] - sec.pts[j];
-    const double den = cross(d, e);
-    if (den == 0) return false;  // parallel (or zero-length)
-    const Vec2d AP = A - P;
-    // Where the ray's line crosses the facet first: most facets are missed there, and the ray
-    // parameter is then not needed.
-    const double u = cross(AP, d) / den;
-    if (!(u >= 0 && u <= 1)) return false;
-    const double s = cross(AP, e) / den;
-    if (!(s > 0 && s < best.s)) return false;
+    double u, s;
+    if (!crossing(sec, j, P, d, u, s) || !(s > 0 && s < best.s)) return false;
     best = {int(j), s};
     return true;
   };
@@ -684,12 +691,8 @@ bool castInto(const Section& s, Vec2d P, Vec2d d, int& facet, double& t) {
   facet = -1;
   for (size_t j = 0; j < s.facets(); ++j) {
     if (!(dot(d, s.normal(j)) < 0)) continue;  // its back, or along it
-    const Vec2d A = s.pts[j], e = s.pts[j + 1] - s.pts[j];
-    const double den = cross(d, e);
-    if (den == 0) continue;
-    const Vec2d AP = A - P;
-    const double u = cross(AP, d) / den, r = cross(AP, e) / den;
-    if (!(u >= 0 && u <= 1) || !(r >= 0 && r < best)) continue;
+    double u, r;
+    if (!crossing(s, j, P, d, u, r) || !(r >= 0 && r < best)) continue;
     best = r;
     facet = int(j);
     t = u;

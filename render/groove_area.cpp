@@ -285,12 +285,18 @@ void zonesOf(const Groove& g, std::vector<Zone>& zones) {
   }
 }
 
+// Whether the (plain) groove g is there at p: within its length and not faded out; r its scale.
+inline bool existsAt(const Groove& g, Vec2d p, double& r) {
+  const double t = g.t0 + g.tdir.x * p.x + g.tdir.y * p.y;
+  r = 1 + g.rho * t;
+  return !(t < g.t_lo || t > g.t_hi || !(r > 0));
+}
+
 // The height of the (plain) groove g at p, or 0 outside its length, where it has faded, and
 // beyond its profile.
 double grooveHeight(const Groove& g, Vec2d p) {
-  double t = g.t0 + g.tdir.x * p.x + g.tdir.y * p.y;
-  double r = 1 + g.rho * t;
-  if (t < g.t_lo || t > g.t_hi || !(r > 0)) return 0;
+  double r;
+  if (!existsAt(g, p, r)) return 0;
   double u = (g.b0 + g.bdir.x * p.x + g.bdir.y * p.y) / r;
   const std::vector<Vec2d>& P = *g.pts;
   if (u <= P.front().x || u >= P.back().x) return 0;
@@ -1519,8 +1525,8 @@ const Groove* Surface::leaving(Vec3d o, Vec3d d, Vec3d& at) const {
   for (size_t gi = 0; gi < grooves_.size(); ++gi) {
     const Groove* q = grooves_[gi].parts ? partOf(gi, p) : &grooves_[gi];
     if (!q) continue;
-    const double t = q->t0 + q->tdir.x * p.x + q->tdir.y * p.y, r = 1 + q->rho * t;
-    if (t < q->t_lo || t > q->t_hi || !(r > 0)) continue;
+    double r;
+    if (!existsAt(*q, p, r)) continue;
     const double u = std::fabs(q->b0 + q->bdir.x * p.x + q->bdir.y * p.y) / r;  // in the profile's units
     if (u < best_u) {
       best_u = u;

@@ -911,7 +911,7 @@ bool centreLinesWithin(const Groove& a, const Groove& b, double r, double w) {
   return d2 <= w * w;
 }
 
-bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
+bool Surface::build(const Poly& region, const std::vector<Groove>& grooves, size_t max_pieces) {
   pieces_.clear();
   cache_keys_ = 0;
   mirror_built_ = false;
@@ -934,7 +934,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
   thread_local std::vector<Cell> cells, next;
   cells.assign(1, Cell{});
   cells[0].poly = region;
-  const size_t cell_cap = 4 * kMaxPieces;
+  const size_t cell_cap = 4 * max_pieces;
   thread_local std::vector<std::vector<Zone>> part_zones;
   for (size_t gi = 0; gi < grooves.size(); ++gi) {
     const Groove& g0 = grooves[gi];
@@ -1042,7 +1042,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
       }
       if (same) {
         size_t a = w0.first;
-        if (pieces_.size() >= kMaxPieces) return false;
+        if (pieces_.size() >= max_pieces) return false;
         pieces_.push_back({c.poly, a == 0 ? zero : c.f[a - 1], a == 0 ? -1 : grooves[a - 1].id, a == 0 ? 0 : c.layer[a - 1]});
         continue;
       }
@@ -1059,7 +1059,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
           p = clip(p, g, k, j < a);
         }
         if (!p.empty() && p.area() > kSliver) {
-          if (pieces_.size() >= kMaxPieces) return false;
+          if (pieces_.size() >= max_pieces) return false;
           pieces_.push_back({p, fa, grooves[a - 1].id, c.layer[a - 1]});
         }
       }
@@ -1073,7 +1073,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
         p = clip(p, g, k, j < a);
       }
       if (!p.empty() && p.area() > kSliver) {
-        if (pieces_.size() >= kMaxPieces) return false;
+        if (pieces_.size() >= max_pieces) return false;
         pieces_.push_back({p, fa, a == 0 ? -1 : grooves[a - 1].id, a == 0 ? 0 : c.layer[a - 1]});
       }
     }
@@ -1227,7 +1227,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves) {
             wp.groove = pc.groove >= 0 ? pc.groove : Q.groove;
             wp.layer = band_layer;
             wp.wall = true;
-            if (leaning.size() >= kMaxPieces) return false;  // walls have a cap of their own
+            if (leaning.size() >= max_pieces) return false;  // walls have a cap of their own
             leaning.push_back(wp);
           }
         }

@@ -245,6 +245,10 @@ class Surface {
   // 20-65% more time there. Of the accuracy scenes only `star` and `dense` reach 600; no footprint
   // of the bench's scenes or of the example configs does.
   static constexpr size_t kMaxPieces = 1200;
+  // The renderer's cap in close views (since 2026-11-30; the integrator's buildArea says when):
+  // enough for a loop of bends crossed by a polyline seen at 1 degree (about 3,800 pieces at the
+  // full reach), whose light from beyond a quarter of the reach was lost at the ordinary cap.
+  static constexpr size_t kMaxPiecesClose = 4000;
   // At most this many grooves per surface (the callers keep the nearest past it).
   static constexpr size_t kMaxGrooves = 8;
   // A groove of at least this many parts (a chain of bends) has them found through a grid of their
@@ -252,9 +256,9 @@ class Surface {
   static constexpr size_t kPartsIndexed = 32;
 
   // Cuts `region` (convex, counter-clockwise) into pieces. False when there are more than 8
-  // grooves, or the pieces of the surface, or those of its walls, would exceed kMaxPieces (the
+  // grooves, or the pieces of the surface, or those of its walls, would exceed `max_pieces` (the
   // caller then tries a smaller region, then fewer grooves, and past that falls back to the blend).
-  bool build(const Poly& region, const std::vector<Groove>& grooves);
+  bool build(const Poly& region, const std::vector<Groove>& grooves, size_t max_pieces = kMaxPieces);
   const std::vector<Piece>& pieces() const { return pieces_; }
 
   // The portions of the pieces seen through the footprint `fp` (a convex polygon on the base

@@ -1315,6 +1315,23 @@ TEST(GrooveArea, BuildRefusesPastItsCaps) {
   EXPECT_LT(s.pieces().size(), Surface::kMaxPieces / 2);
 }
 
+// The renderer's cap for close views (the pixel small against the region) holds more pieces:
+// seven grooves through one point need about 1,400, past the ordinary cap and within that one,
+// and the surface built under it covers the whole region.
+TEST(GrooveArea, TheCloseViewsCapHoldsMorePieces) {
+  Surface s;
+  std::vector<Groove> seven;
+  for (int i = 0; i < 7; ++i) seven.push_back(along(Vec2d(std::cos(0.3 * i), std::sin(0.3 * i)), 0.001 * i, i));
+  const Poly region = rect(-0.3, -0.3, 0.3, 0.3);
+  EXPECT_FALSE(s.build(region, seven));
+  ASSERT_TRUE(s.build(region, seven, Surface::kMaxPiecesClose));
+  EXPECT_GT(s.pieces().size(), Surface::kMaxPieces);
+  EXPECT_LE(s.pieces().size(), Surface::kMaxPiecesClose);
+  double area = 0;
+  for (const Piece& pc : s.pieces()) area += pc.wall ? 0.0 : pc.poly.area();
+  EXPECT_NEAR(area, region.area(), 1e-9);
+}
+
 // Rays that leave a portion along the groove, a little down, meet nothing within a small region:
 // scatter() says where they leave the portion (the escaped fragments' centroid), and leaving()
 // where they cross the region's boundary, at their height on the ray, below the base, and the
@@ -1477,3 +1494,4 @@ TEST(GrooveArea, AChainSeenFromFarTilesTheRegion) {
 }
 }  // namespace
 }  // namespace dg::groove::area
+

@@ -153,6 +153,19 @@ LAYOUTS = {
     hardness_hv: 30
     region: [0.48, 0.48, 0.52, 0.52]
 """,
+    # Eight deep scratches (20 kg on HV 20: 0.17 mm deep) in all directions through a spot 0.2 mm
+    # across, for a view so close (1 degree, 32 pixels: 33 micrometres per pixel) that the polygons'
+    # region spans dozens of pixels: every footprint is past the ordinary cap of pieces at the
+    # full reach, and the close views' cap holds them (docs/grooves.md, "Cost bound and fallback").
+    "spot": """
+  - type: scratch
+    count: 8
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 6
+    force_kg: 20
+    hardness_hv: 20
+    region: [0.495, 0.495, 0.505, 0.505]
+""",
     # Thirty concentric wash-swirl arcs over most of the view (bench only: the cut mesh has 2.5
     # million triangles, and the time to build it is part of what the bench measures).
     "swirls": """

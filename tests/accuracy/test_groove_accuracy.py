@@ -62,16 +62,18 @@ def compare(ref, test, name):
 
 
 class GrooveAccuracy(unittest.TestCase):
-    def check(self, layout, light, part="plate", **scene):
+    def check(self, layout, light, part="plate", max_pct=TARGET_PCT, max_mean=TARGET_MEAN, **scene):
+        """Renders the layout both ways and compares them. max_pct and max_mean: the bounds, the
+        issue's target unless a scene is known to need wider ones (its test says why)."""
         tag = "%s_%s%s" % (layout, light, "" if part == "plate" else "_" + part)
         ref = render(tag + "_ref", layout, light, "geometry", REF_SPP, noise_seed=1, part=part, **scene)
         grv = render(tag + "_groove", layout, light, "groove", 4, part=part, **scene)
         st = compare(ref, grv, tag)
         pct, mean = st["pct_ge_10"], st["mean"]
         print("%-9s %-5s %-5s groove@4spp vs geometry@%dspp: mean dE %.3f, %.3f%% of pixels >= 10 (target < %.1f%%)"
-              % (layout, light, part, REF_SPP, mean, pct, TARGET_PCT), flush=True)
-        self.assertLess(pct, TARGET_PCT)
-        self.assertLess(mean, TARGET_MEAN)
+              % (layout, light, part, REF_SPP, mean, pct, max_pct), flush=True)
+        self.assertLess(pct, max_pct)
+        self.assertLess(mean, max_mean)
         # No footprint of these scenes is past the polygons' caps. The ends' tips, where the force
         # fade leaves no cross-section at the closest point, are polygons too (until 2026-11-28
         # they went to the blend: 109 footprints on each ends scene).
@@ -151,8 +153,9 @@ class GrooveAccuracy(unittest.TestCase):
         now that groove enters in pieces along its path (Tracer::scaleSegments), 0.174% (0.38);
         0.195% (0.39) since the bends (docs/grooves.md, "Bends"), which its deep curved grooves
         take only where they stray from their tangent by a half-width, and 0.184% (0.39) since
-        the leg under the footprint keeps the path's direction. Bounded at 0.3%, which the old
-        renderer fails."""
+        the leg under the footprint keeps the path's direction; 0.109% (0.37) since its deep
+        grooves make the polygons' region span 32 pixel radii, which takes the close views' cap of
+        pieces (the integrator's kCloseReach). Bounded at 0.3%, which the old renderer fails."""
         st = self.check("tips", "bar", fov_deg=3)
         self.assertLess(st["pct_ge_10"], 0.3)
 
@@ -293,6 +296,17 @@ class GrooveAccuracy(unittest.TestCase):
         st = self.check("halftip", "bar", fov_deg=1, distance_mm=20, cell_mm=0.0025)
         self.assertLess(st["pct_ge_10"], 0.4)
         self.assertLess(st["mean"], 0.6)
+
+    def test_spot_bar(self):
+        """Eight deep scratches through a spot 0.2 mm across (groove_scenes.LAYOUTS["spot"]) seen at
+        1 degree, 32 x 32 pixels, under the bar light. Every footprint passes the polygons'
+        ordinary cap of pieces (1,200) at every reach; with it 3,171 of 4,096 footprints kept only
+        their nearest grooves and the image had little to do with the reference: 50% of pixels
+        >= 10 (mean dE 20.1). Seen this close the cap is 4,000 (the integrator's kCloseReach):
+        every footprint takes its polygons over the full reach, 0.49% (1.23), the same at 16 spp
+        (0.49%, 1.14), so what is left is not noise. The issue's target (< 0.5%, mean dE < 1) is
+        for its three scenes; this one is bounded at 1.5% and a mean dE of 1.6."""
+        self.check("spot", "bar", fov_deg=1, resolution=32, max_pct=1.5, max_mean=1.6)
 
     def test_backforth_bar(self):
         """A scratch that goes back and forth past the view (groove_scenes.LAYOUTS["backforth"]:

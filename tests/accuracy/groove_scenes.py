@@ -155,8 +155,8 @@ LAYOUTS = {
 """,
     # Eight deep scratches (20 kg on HV 20: 0.17 mm deep) in all directions through a spot 0.2 mm
     # across, for a view so close (1 degree, 32 pixels: 33 micrometres per pixel) that the polygons'
-    # region spans dozens of pixels: every footprint is past the ordinary cap of pieces at the
-    # full reach, and the close views' cap holds them (docs/grooves.md, "Cost bound and fallback").
+    # region spans dozens of pixels: most footprints pass the ordinary cap of pieces at every
+    # reach, and the close views' cap holds them (docs/grooves.md, "Cost bound and fallback").
     "spot": """
   - type: scratch
     count: 8

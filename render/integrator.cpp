@@ -2001,12 +2001,12 @@ class Tracer {
     // kMaxPiecesClose pieces instead of kMaxPieces. There a pixel sees a single facet's image, and
     // the light it gets over facets beyond a smaller region shows as whole regions gone dark: the
     // passes fuzzer's loop p1_11 seen at 1 degree kept 7.1% of pixels >= 10 at the ordinary cap
-    // and 3.5% at this one; eight deep grooves through one spot seen at 1 degree (every footprint
-    // past the ordinary cap) 22.5% and 1.0%. Both took 2 to 2.4 times as long. Farther away the
-    // larger cap cost up to twice the time and changed nothing that showed (100 fuzzer layouts at
-    // 48 x 48 and 3 to 10 degrees: mean dE 0.203 -> 0.208 over them), so it is kept for close
-    // views (docs/grooves.md, "Cost bound and fallback"). The nearest grooves' surfaces below keep
-    // the ordinary cap.
+    // and 3.5% at this one; eight deep grooves through one spot seen at 1 degree (most footprints
+    // past the ordinary cap at every reach) 22.5% and 1.0%. Both took 2 to 2.4 times as long.
+    // Farther away the larger cap cost up to twice the time and changed nothing that showed (100
+    // fuzzer layouts at 48 x 48 and 3 to 10 degrees: mean dE 0.203 -> 0.208 over them), so it is
+    // kept for close views (docs/grooves.md, "Cost bound and fallback"). The nearest grooves'
+    // surfaces below keep the ordinary cap.
     const size_t cap = double(enlarge) >= kCloseReach * gs.pixel_r ? ga::Surface::kMaxPiecesClose
                                                                    : ga::Surface::kMaxPieces;
     for (int whole = split ? 0 : 1; whole < 2; ++whole) {

@@ -426,6 +426,27 @@ double Surface::heightAt(Vec2d p) const {
   return lo < 0 ? lo : hi;
 }
 
+bool Surface::above(Vec2d p, double z) const {
+  // The composite is the lowest groove height where one is below the base, else the highest: once
+  // a groove is below the base, the answer is no for z >= 0, and for z < 0 as soon as the lowest so
+  // far is not above z (it only falls). NaN heights are passed over, as std::min and std::max
+  // pass them over in heightAt.
+  double lo = 0, hi = 0;
+  for (size_t gi = 0; gi < grooves_.size(); ++gi) {
+    const Groove& g = grooves_[gi];
+    const Groove* q = g.parts ? partOf(gi, p) : &g;
+    if (!q) continue;
+    const double h = grooveHeight(*q, p);
+    if (h < 0) {
+      lo = std::min(lo, h);
+      if (z >= 0 || lo <= z) return false;
+    } else {
+      hi = std::max(hi, h);
+    }
+  }
+  return (lo < 0 ? lo : hi) > z;
+}
+
 namespace {
 
 Vec2d unitOf(Vec2d v) {
@@ -1139,7 +1160,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves, size
       bool step = false;
       for (double f : {kStep / len, 0.5, 1 - kStep / len}) {
         const Vec2d q = e0 + t * f;
-        step = step || heightAt(q + n * kStep) > pc.plane.at(q) + kTall;
+        step = step || above(q + n * kStep, pc.plane.at(q) + kTall);
       }
       // (A corner's parts: each leg's end line at the vertex is checked too; the cap beyond it
       // meets it without a step, so no wall is found there.)

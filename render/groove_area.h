@@ -311,6 +311,9 @@ class Surface {
   };
   // The composite height at p, from the grooves' definitions.
   double heightAt(Vec2d p) const;
+  // Whether heightAt(p) > z, stopping at the first groove that settles it (the wall search asks
+  // this of every piece's edges: most of a close view's build time went to heightAt).
+  bool above(Vec2d p, double z) const;
   const std::vector<Wall>& walls() const { return walls_; }
 
  private:

@@ -810,6 +810,40 @@ TEST(GrooveArea, AChainsPartitionHasNoSlivers) {
   EXPECT_LT(longest_thin, 1e-5);
 }
 
+// above(p, z), which the wall search asks of every piece's edges, stops at the first groove that
+// settles it; it must say what heightAt(p) > z says, on every side of every kind of height: over a
+// crossing and a chain of bends, for levels below, at and above the composite and about the base.
+TEST(GrooveArea, AboveAgreesWithTheHeight) {
+  const ScratchPath path = ScratchPath::bezier({{-2, -1}, {0.35, 0.3}, {-0.35, 0.3}, {2, -1}});
+  const PathPoint pp = path.closest(Vec2f(0, 0));
+  std::vector<ScratchPath::Corner> bends;
+  std::pair<double, double> span;
+  ASSERT_TRUE(path.bendsAround(double(pp.s), {0, 0}, 0.3, 2.5e-4, 0.0, 0.0, 16, M_PI, bends, span));
+  std::vector<Groove> parts;
+  ASSERT_TRUE(chainParts(legsOfBends(path, bends, span), 15 * M_PI / 180, rect(-0.3, -0.3, 0.3, 0.3), parts));
+  std::vector<Groove> gs = crossing();
+  gs.push_back(ofParts(parts, 3));
+  Surface s;
+  ASSERT_TRUE(s.build(rect(-0.2, -0.2, 0.2, 0.2), gs, Surface::kMaxPiecesClose));
+  int n = 0, below = 0, up = 0;
+  for (int j = 0; j <= 50; ++j)
+    for (int i = 0; i <= 50; ++i) {
+      const Vec2d p(-0.2 + 0.4 * (i + 0.29) / 51, -0.2 + 0.4 * (j + 0.53) / 51);
+      const double h = s.heightAt(p);
+      below += h < 0;
+      up += h > 0;
+      for (double z : {h - 1e-3, std::nextafter(h, -1.0), h, std::nextafter(h, 1.0), h + 1e-3, -0.05, -1e-12, 0.0,
+                       1e-12, 0.05}) {
+        ASSERT_EQ(s.above(p, z), h > z) << p.x << " " << p.y << " z " << z << " h " << h;
+        ++n;
+      }
+    }
+  EXPECT_EQ(n, 26010);
+  // Both kinds of composite were met: inside the grooves and on their pile-ups.
+  EXPECT_GT(below, 200);
+  EXPECT_GT(up, 200);
+}
+
 // A chain of bends has tens to hundreds of parts; Surface finds the part that holds a point through a grid
 // of the parts' boxes over its region (heightAt, and the cells of build). Over a small region and
 // over a large one (other bins, other boxes) it gives the same height to the last bit, inside the

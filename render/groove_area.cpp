@@ -413,13 +413,19 @@ const Groove* Surface::partOf(size_t gi, Vec2d p) const {
   return nullptr;
 }
 
+bool Surface::heightOf(size_t gi, Vec2d p, double& h) const {
+  const Groove& g = grooves_[gi];
+  const Groove* q = g.parts ? partOf(gi, p) : &g;
+  if (!q) return false;
+  h = grooveHeight(*q, p);
+  return true;
+}
+
 double Surface::heightAt(Vec2d p) const {
   double lo = 0, hi = 0;
   for (size_t gi = 0; gi < grooves_.size(); ++gi) {
-    const Groove& g = grooves_[gi];
-    const Groove* q = g.parts ? partOf(gi, p) : &g;
-    if (!q) continue;
-    const double h = grooveHeight(*q, p);
+    double h;
+    if (!heightOf(gi, p, h)) continue;
     lo = std::min(lo, h);
     hi = std::max(hi, h);
   }
@@ -433,10 +439,8 @@ bool Surface::above(Vec2d p, double z) const {
   // pass them over in heightAt.
   double lo = 0, hi = 0;
   for (size_t gi = 0; gi < grooves_.size(); ++gi) {
-    const Groove& g = grooves_[gi];
-    const Groove* q = g.parts ? partOf(gi, p) : &g;
-    if (!q) continue;
-    const double h = grooveHeight(*q, p);
+    double h;
+    if (!heightOf(gi, p, h)) continue;
     if (h < 0) {
       lo = std::min(lo, h);
       if (z >= 0 || lo <= z) return false;

@@ -363,6 +363,8 @@ class Surface {
   void indexParts(const Poly& region);
   static int partBin(const PartIndex& ix, double v, int axis);
   const Groove* partOf(size_t gi, Vec2d p) const;
+  // Groove gi's height at p (a groove of parts: the part that holds p); false where no part does.
+  bool heightOf(size_t gi, Vec2d p, double& h) const;
   // Shadow polygons per (piece, light key): [begin, end) in cache_polys_, begin < 0 if not yet.
   mutable size_t cache_keys_ = 0;
   mutable std::vector<std::pair<int, int>> cache_range_;

@@ -945,7 +945,7 @@ void crossChecks(const Value& root, const Parser& p) {
                "'" + l.path + ".inner_radius_mm' must be smaller than radius_mm");
   }
   const Value& ren = root["render"];
-  if (ren.has("geometry_cell_mm") && !ren["geometry_cell_mm"].defaulted) {
+  if (!ren["geometry_cell_mm"].defaulted) {  // (defaults are filled in by now)
     const Value& gc = ren["geometry_cell_mm"];
     if (ren["scratches"].str() != "geometry")
       p.failAt(gc.line, gc.column,

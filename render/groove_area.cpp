@@ -1069,6 +1069,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves, size
         size_t a = w0.first;
         if (pieces_.size() >= max_pieces) return false;
         pieces_.push_back({c.poly, a == 0 ? zero : c.f[a - 1], a == 0 ? -1 : grooves[a - 1].id, a == 0 ? 0 : c.layer[a - 1]});
+        pieces_.back().raised = !w0.second;
         continue;
       }
     }
@@ -1100,6 +1101,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves, size
       if (!p.empty() && p.area() > kSliver) {
         if (pieces_.size() >= max_pieces) return false;
         pieces_.push_back({p, fa, a == 0 ? -1 : grooves[a - 1].id, a == 0 ? 0 : c.layer[a - 1]});
+        pieces_.back().raised = true;
       }
     }
   }
@@ -1146,6 +1148,18 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves, size
         if (std::fabs(te) < 1e29 && 1 + g.rho * te > 1e-9 && te >= tmin - slack && te <= tmax + slack)
           addEndLine(g.t0, g.tdir, te);
     }
+  // Where every groove's height is continuous (no groove of parts, whose parts may meet with a
+  // step, nor a split line), the composite can step up beyond an edge only where the lowest
+  // groove below the base there comes up to it and gives way to another's pile-up. Beyond an edge
+  // of a raised piece it is the highest height, which is continuous, or lower (a groove cutting
+  // below the base); beyond an edge lying deeper than kDeep the groove that made the piece is still
+  // below the base just outside, so the lowest height there is no higher than the piece. Such
+  // edges are not asked (Surface::above at three points each: a sixth to a quarter of a dense
+  // crossing's time), unless an end of theirs lies on an end line: the points asked next to that
+  // end can fall beyond the line, and what they find there is kept as before.
+  bool continuous = true;
+  for (const Groove& g : grooves) continuous = continuous && !g.parts && !g.has_split;
+  constexpr double kDeep = 1e-6;  // mm below the base
   std::vector<Piece> leaning;  // appended to pieces_ at the end
   for (size_t pi = 0; pi < n_flat; ++pi)
     for (int k = 0; k < pieces_[pi].poly.n; ++k) {
@@ -1161,17 +1175,22 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves, size
       // convex, so higher than the piece somewhere only if at an end; on an abrupt end line, and
       // on a half turn's split line (Groove::split), the heights beyond can be anything, so the
       // pieces beyond are always looked at.
-      bool step = false;
-      for (double f : {kStep / len, 0.5, 1 - kStep / len}) {
-        const Vec2d q = e0 + t * f;
-        step = step || above(q + n * kStep, pc.plane.at(q) + kTall);
-      }
       // (A corner's parts: each leg's end line at the vertex is checked too; the cap beyond it
       // meets it without a step, so no wall is found there.)
+      bool step = false, touches = false;
       for (size_t k = 0; k < end_lines.size() && !step; ++k) {
         const EndLine& el = end_lines[k];
         const double ta = el.t0 + el.tdir.x * e0.x + el.tdir.y * e0.y, tb = el.t0 + el.tdir.x * e1.x + el.tdir.y * e1.y;
-        step = std::fabs(ta - el.te) < 1e-9 && std::fabs(tb - el.te) < 1e-9;
+        const bool a_on = std::fabs(ta - el.te) < 1e-9, b_on = std::fabs(tb - el.te) < 1e-9;
+        step = a_on && b_on;
+        touches = touches || a_on || b_on;
+      }
+      const bool smooth =
+          continuous && !touches && (pc.raised || std::max(pc.plane.at(e0), pc.plane.at(e1)) < -kDeep);
+      for (double f : {kStep / len, 0.5, 1 - kStep / len}) {
+        if (step || smooth) break;
+        const Vec2d q = e0 + t * f;
+        step = above(q + n * kStep, pc.plane.at(q) + kTall);
       }
       if (!step) continue;
       // The pieces beyond: the edge moved kStep outwards, clipped to each (tau in [0, 1] along it).

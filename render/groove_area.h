@@ -218,6 +218,9 @@ struct Piece {
   Vec2d lo{0, 0}, hi{0, 0};  // bounding box of poly
   double zmax = 0;            // highest point
   bool wall = false;          // one of the two steep pieces that stand for a wall (Surface::Wall)
+  // No groove cuts below the base here (the composite is the highest groove's height, or the
+  // base's): where every groove's height is continuous, the composite cannot step up beyond it.
+  bool raised = false;
 };
 
 // A portion: a region of one piece (convex fragments in (x, y)) with the footprint weight per unit

@@ -844,6 +844,55 @@ TEST(GrooveArea, AboveAgreesWithTheHeight) {
   EXPECT_GT(up, 200);
 }
 
+// Surface::build asks for a step only along the edges that can have one (a piece below the base
+// within kDeep of it, or with an end on an end line; every edge where a groove is of parts). Over
+// six grooves through one spot, some ending abruptly and some tapering, every piece edge whose
+// far side stands higher than the piece (by 1e-6 mm, at its midpoint or near its ends) has a wall
+// along it, facing the piece, up to that height.
+TEST(GrooveArea, EveryStepUpHasItsWall) {
+  std::vector<Groove> gs;
+  for (int i = 0; i < 6; ++i) {
+    Groove g = along(dirOf(17 + 29 * i), 0.004 * (i - 2.5), i);
+    if (i % 3 == 1) g.t_hi = 0.02 + 0.01 * i;      // an abrupt end in the region
+    if (i % 3 == 2) g.rho = -6, g.t_hi = 0.2;  // a tapered one
+    gs.push_back(g);
+  }
+  Surface s;
+  ASSERT_TRUE(s.build(rect(-0.12, -0.12, 0.12, 0.12), gs, Surface::kMaxPiecesClose));
+  int steps = 0, edges = 0;
+  for (const Piece& pc : s.pieces()) {
+    if (pc.wall) continue;
+    for (int k = 0; k < pc.poly.n; ++k) {
+      const Vec2d e0 = pc.poly.v[size_t(k)], e1 = pc.poly.v[size_t((k + 1) % pc.poly.n)];
+      const Vec2d t = e1 - e0;
+      const double len = std::hypot(t.x, t.y);
+      if (!(len > 1e-6)) continue;
+      const Vec2d n(t.y / len, -t.x / len);
+      ++edges;
+      for (double f : {0.01, 0.5, 0.99}) {
+        const Vec2d m = e0 + t * f;
+        const double beyond = composite(gs, m + n * 1e-9), here = pc.plane.at(m);
+        if (std::fabs(m.x) > 0.119 || std::fabs(m.y) > 0.119 || !(beyond > here + 1e-6)) continue;
+        ++steps;
+        bool found = false;
+        for (const Surface::Wall& w : s.walls()) {
+          const Vec2d ab = w.b - w.a;
+          const double l2 = ab.x * ab.x + ab.y * ab.y;
+          const double u = ((m.x - w.a.x) * ab.x + (m.y - w.a.y) * ab.y) / l2;
+          const Vec2d foot = w.a + ab * u;
+          if (u < -1e-9 || u > 1 + 1e-9 || std::hypot(foot.x - m.x, foot.y - m.y) > 1e-9) continue;
+          if (w.out.x * n.x + w.out.y * n.y > -0.999) continue;
+          found = found || std::fabs(w.za1 + (w.zb1 - w.za1) * u - beyond) < 1e-6;
+        }
+        EXPECT_TRUE(found) << "a step of " << beyond - here << " mm at " << m.x << " " << m.y;
+      }
+    }
+  }
+  // Both the grooves' edges against pile-ups and the abrupt ends step.
+  EXPECT_GT(edges, 400);
+  EXPECT_GT(steps, 60);
+}
+
 // A chain of bends has tens to hundreds of parts; Surface finds the part that holds a point through a grid
 // of the parts' boxes over its region (heightAt, and the cells of build). Over a small region and
 // over a large one (other bins, other boxes) it gives the same height to the last bit, inside the

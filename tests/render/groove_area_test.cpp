@@ -1577,4 +1577,3 @@ TEST(GrooveArea, AChainSeenFromFarTilesTheRegion) {
 }
 }  // namespace
 }  // namespace dg::groove::area
-

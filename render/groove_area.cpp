@@ -1157,13 +1157,33 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves, size
   // edges are not asked (Surface::above at three points each: a sixth to a quarter of a dense
   // crossing's time), unless an end of theirs lies on an end line: the points asked next to that
   // end can fall beyond the line, and what they find there is kept as before.
-  bool continuous = true;
-  for (const Groove& g : grooves) continuous = continuous && !g.parts && !g.has_split;
+  //
+  // A groove of parts is continuous within each part's domain (a part is a plain groove; its end
+  // lines are among end_lines), but the parts may meet with a step on their seams, and beyond a
+  // seam another part holds. So with grooves of parts an edge is not asked only where, for each
+  // such groove, the part that holds the piece (at its centroid) holds both ends of the edge by more
+  // than kSeam inside every line of its domain, and has no split line: then that part holds the
+  // whole edge and the points just beyond it (its domain is convex), and the argument above holds.
+  bool continuous = true, parted = false;
+  for (const Groove& g : grooves) {
+    continuous = continuous && !g.has_split;
+    parted = parted || g.parts;
+  }
   constexpr double kDeep = 1e-6;  // mm below the base
+  constexpr double kSeam = 1e-7;  // mm, against the points asked kStep beyond an edge
+  thread_local std::vector<const Groove*> holding;  // per groove of parts: the piece's part (or null)
   std::vector<Piece> leaning;  // appended to pieces_ at the end
   for (size_t pi = 0; pi < n_flat; ++pi)
     for (int k = 0; k < pieces_[pi].poly.n; ++k) {
       const Piece& pc = pieces_[pi];
+      if (parted && k == 0) {
+        Vec2d c(0, 0);
+        for (int j = 0; j < pc.poly.n; ++j) c = c + pc.poly.v[size_t(j)];
+        c = c * (1.0 / pc.poly.n);
+        holding.clear();
+        for (size_t gi = 0; gi < grooves.size(); ++gi)
+          if (grooves[gi].parts) holding.push_back(partOf(gi, c));
+      }
       const Vec2d e0 = pc.poly.v[size_t(k)], e1 = pc.poly.v[size_t((k + 1) % pc.poly.n)];
       const Vec2d t = e1 - e0;
       const double len = std::sqrt(t.x * t.x + t.y * t.y);
@@ -1185,8 +1205,16 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves, size
         step = a_on && b_on;
         touches = touches || a_on || b_on;
       }
-      const bool smooth =
-          continuous && !touches && (pc.raised || std::max(pc.plane.at(e0), pc.plane.at(e1)) < -kDeep);
+      bool smooth = continuous && !touches && (pc.raised || std::max(pc.plane.at(e0), pc.plane.at(e1)) < -kDeep);
+      for (size_t h = 0; h < (parted ? holding.size() : 0) && smooth; ++h) {
+        const Groove* q = holding[h];
+        smooth = q && !q->has_split;
+        for (int j = 0; j < (q ? q->n_dom : 0) && smooth; ++j) {
+          const HalfPlane& d = q->dom[j];
+          const double m = kSeam * std::hypot(d.a.x, d.a.y);
+          smooth = dot(d.a, e0) + d.c < -m && dot(d.a, e1) + d.c < -m;
+        }
+      }
       for (double f : {kStep / len, 0.5, 1 - kStep / len}) {
         if (step || smooth) break;
         const Vec2d q = e0 + t * f;

@@ -844,22 +844,39 @@ TEST(GrooveArea, AboveAgreesWithTheHeight) {
   EXPECT_GT(up, 200);
 }
 
-// Surface::build asks for a step only along the edges that can have one (a piece below the base
-// within kDeep of it, or with an end on an end line; every edge where a groove is of parts). Over
-// six grooves through one spot, some ending abruptly and some tapering, every piece edge whose
-// far side stands higher than the piece (by 1e-6 mm, at its midpoint or near its ends) has a wall
-// along it, facing the piece, up to that height.
-TEST(GrooveArea, EveryStepUpHasItsWall) {
-  std::vector<Groove> gs;
-  for (int i = 0; i < 6; ++i) {
-    Groove g = along(dirOf(17 + 29 * i), 0.004 * (i - 2.5), i);
-    if (i % 3 == 1) g.t_hi = 0.02 + 0.01 * i;      // an abrupt end in the region
-    if (i % 3 == 2) g.rho = -6, g.t_hi = 0.2;  // a tapered one
-    gs.push_back(g);
+// The composite height at p with grooves of parts: each part's height where its domain holds p
+// (the first such part), from the grooves' definitions alone.
+double compositeOfParts(const std::vector<Groove>& gs, Vec2d p) {
+  double lo = 0, hi = 0;
+  for (const Groove& g : gs) {
+    const Groove* q = &g;
+    if (g.parts) {
+      q = nullptr;
+      for (const Groove& part : *g.parts) {
+        bool holds = true;
+        for (int k = 0; k < part.n_dom && holds; ++k) holds = part.dom[k].holds(p);
+        if (holds) {
+          q = &part;
+          break;
+        }
+      }
+      if (!q) continue;
+    }
+    const double h = grooveHeight(*q, p);
+    lo = std::min(lo, h);
+    hi = std::max(hi, h);
   }
-  Surface s;
-  ASSERT_TRUE(s.build(rect(-0.12, -0.12, 0.12, 0.12), gs, Surface::kMaxPiecesClose));
-  int steps = 0, edges = 0;
+  return lo < 0 ? lo : hi;
+}
+
+// Every piece edge of s (within `half` of the centre) whose far side stands higher than the piece
+// by 1e-6 mm, at its midpoint or near its ends, with a wall along it facing the piece, up to that
+// height? Counts the edges looked at, the steps found and the steps without a wall.
+struct StepCount {
+  int edges = 0, steps = 0, missing = 0;
+};
+StepCount stepsAndWalls(const Surface& s, const std::vector<Groove>& gs, double half) {
+  StepCount c;
   for (const Piece& pc : s.pieces()) {
     if (pc.wall) continue;
     for (int k = 0; k < pc.poly.n; ++k) {
@@ -868,12 +885,12 @@ TEST(GrooveArea, EveryStepUpHasItsWall) {
       const double len = std::hypot(t.x, t.y);
       if (!(len > 1e-6)) continue;
       const Vec2d n(t.y / len, -t.x / len);
-      ++edges;
+      ++c.edges;
       for (double f : {0.01, 0.5, 0.99}) {
         const Vec2d m = e0 + t * f;
-        const double beyond = composite(gs, m + n * 1e-9), here = pc.plane.at(m);
-        if (std::fabs(m.x) > 0.119 || std::fabs(m.y) > 0.119 || !(beyond > here + 1e-6)) continue;
-        ++steps;
+        const double beyond = compositeOfParts(gs, m + n * 1e-9), here = pc.plane.at(m);
+        if (std::fabs(m.x) > half || std::fabs(m.y) > half || !(beyond > here + 1e-6)) continue;
+        ++c.steps;
         bool found = false;
         for (const Surface::Wall& w : s.walls()) {
           const Vec2d ab = w.b - w.a;
@@ -884,13 +901,62 @@ TEST(GrooveArea, EveryStepUpHasItsWall) {
           if (w.out.x * n.x + w.out.y * n.y > -0.999) continue;
           found = found || std::fabs(w.za1 + (w.zb1 - w.za1) * u - beyond) < 1e-6;
         }
+        c.missing += !found;
         EXPECT_TRUE(found) << "a step of " << beyond - here << " mm at " << m.x << " " << m.y;
       }
     }
   }
+  return c;
+}
+
+// Surface::build asks for a step only along the edges that can have one (a piece below the base
+// within kDeep of it, or with an end on an end line; with grooves of parts, also every edge that
+// is not well inside one part of each). Over six grooves through one spot, some ending abruptly
+// and some tapering, every step up beyond a piece edge has its wall.
+TEST(GrooveArea, EveryStepUpHasItsWall) {
+  std::vector<Groove> gs;
+  for (int i = 0; i < 6; ++i) {
+    Groove g = along(dirOf(17 + 29 * i), 0.004 * (i - 2.5), i);
+    if (i % 3 == 1) g.t_hi = 0.02 + 0.01 * i;      // an abrupt end in the region
+    if (i % 3 == 2) g.rho = -6, g.t_hi = 0.2;  // a tapered one
+    gs.push_back(g);
+  }
+  Surface s;
+  ASSERT_TRUE(s.build(rect(-0.12, -0.12, 0.12, 0.12), gs, Surface::kMaxPiecesClose));
+  const StepCount c = stepsAndWalls(s, gs, 0.119);
   // Both the grooves' edges against pile-ups and the abrupt ends step.
-  EXPECT_GT(edges, 400);
-  EXPECT_GT(steps, 60);
+  EXPECT_GT(c.edges, 400);
+  EXPECT_GT(c.steps, 60);
+  EXPECT_EQ(c.missing, 0);
+}
+
+// The same with a corner's groove among them: a path turning by 120 degrees next to the spot,
+// crossed by four straight grooves, two of them ending abruptly. Its first part (a leg) is given a
+// profile 1.5 times as deep, so that it steps down from the parts next to it on their seams, as the
+// parts of a chain of bends do where the force changes from one bend to the next: the wall search
+// must ask the edges on the seams even where the piece lies deep in a groove.
+TEST(GrooveArea, EveryStepUpHasItsWallWithACorner) {
+  std::vector<Groove> parts;
+  auto [a, b] = legs({0.01, -0.005}, dirOf(20), dirOf(-100));
+  ASSERT_TRUE(cornerParts(a, b, 15 * M_PI / 180, parts));
+  static std::vector<Vec2d> deeper;
+  deeper.clear();
+  for (const Vec2d& q : kProfile) deeper.push_back(Vec2d(q.x, 1.5 * q.y));
+  parts.front().pts = &deeper;
+  std::vector<Groove> gs = {ofParts(parts, 0)};
+  for (int i = 0; i < 4; ++i) {
+    Groove g = along(dirOf(63 + 37 * i), 0.006 * (i - 1.5), i + 1);
+    if (i % 2 == 1) g.t_hi = 0.015 + 0.01 * i;  // an abrupt end in the region
+    gs.push_back(g);
+  }
+  Surface s;
+  ASSERT_TRUE(s.build(rect(-0.12, -0.12, 0.12, 0.12), gs, Surface::kMaxPiecesClose));
+  const StepCount c = stepsAndWalls(s, gs, 0.119);
+  std::printf("[          ] %zu parts, %d edges, %d steps, %d without a wall\n", parts.size(), c.edges, c.steps,
+              c.missing);
+  EXPECT_GT(c.edges, 400);
+  EXPECT_GT(c.steps, 40);
+  EXPECT_EQ(c.missing, 0);
 }
 
 // A chain of bends has tens to hundreds of parts; Surface finds the part that holds a point through a grid

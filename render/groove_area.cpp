@@ -936,23 +936,14 @@ bool centreLinesWithin(const Groove& a, const Groove& b, double r, double w) {
   return d2 <= w * w;
 }
 
-bool Surface::build(const Poly& region, const std::vector<Groove>& grooves, size_t max_pieces) {
-  pieces_.clear();
-  cache_keys_ = 0;
-  mirror_built_ = false;
-  walls_.clear();
-  grooves_ = grooves;
-  parts_indexed_ = false;
-  region_lo_ = Vec2d(1e300, 1e300);
-  region_hi_ = Vec2d(-1e300, -1e300);
-  region.extend(region_lo_, region_hi_);
-  if (grooves.size() > kMaxGrooves) return false;
-  indexParts(region);
+// Cuts the region into the pieces of the composite, without walls (build()); N >= grooves.size().
+template <size_t N>
+bool Surface::cutPieces(const Poly& region, const std::vector<Groove>& grooves, size_t max_pieces) {
   struct Cell {
     Poly poly;
-    Plane f[kMaxGrooves];
-    int layer[kMaxGrooves];
-    bool zero[kMaxGrooves];
+    Plane f[N];
+    int layer[N];
+    bool zero[N];
   };
   // Reused between calls: at the caps the cells take megabytes, and fresh buffers for every
   // footprint cost more in page faults than the clipping does.
@@ -1105,6 +1096,26 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves, size
       }
     }
   }
+  return true;
+}
+
+bool Surface::build(const Poly& region, const std::vector<Groove>& grooves, size_t max_pieces) {
+  pieces_.clear();
+  cache_keys_ = 0;
+  mirror_built_ = false;
+  walls_.clear();
+  grooves_ = grooves;
+  parts_indexed_ = false;
+  region_lo_ = Vec2d(1e300, 1e300);
+  region_hi_ = Vec2d(-1e300, -1e300);
+  region.extend(region_lo_, region_hi_);
+  if (grooves.size() > kMaxGrooves) return false;
+  indexParts(region);
+  // The cells hold a plane per groove: the smaller array where it will do. With kMaxGrooves planes
+  // in every cell, surfaces of 8 grooves or fewer (nearly all) took 3-8% longer to build.
+  if (!(grooves.size() <= kSmallGrooves ? cutPieces<kSmallGrooves>(region, grooves, max_pieces)
+                                        : cutPieces<kMaxGrooves>(region, grooves, max_pieces)))
+    return false;
   // Steps of the composite: along every piece edge, the surface just outside higher than the
   // piece. Each wall is found once, from its low side, split where the piece beyond changes (the
   // top is then one plane's, straight), and becomes two steep pieces (kWallLean).

@@ -252,14 +252,17 @@ class Surface {
   // enough for a loop of bends crossed by a polyline seen at 1 degree (about 3,800 pieces at the
   // full reach), whose light from beyond a quarter of the reach was lost at the ordinary cap.
   static constexpr size_t kMaxPiecesClose = 4000;
-  // At most this many grooves per surface (the callers keep the nearest past it).
-  static constexpr size_t kMaxGrooves = 8;
+  // At most this many grooves per surface (the callers keep the nearest past it). 16 since
+  // 2026-11-30 (8 before; docs/grooves.md, "Sixteen grooves").
+  static constexpr size_t kMaxGrooves = 16;
+  // Surfaces of up to this many grooves are cut with cells that hold this many planes.
+  static constexpr size_t kSmallGrooves = 8;
   // A groove of at least this many parts (a chain of bends) has them found through a grid of their
   // boxes (below); fewer are tried in turn, which costs less than the grid.
   static constexpr size_t kPartsIndexed = 32;
 
-  // Cuts `region` (convex, counter-clockwise) into pieces. False when there are more than 8
-  // grooves, or the pieces of the surface, or those of its walls, would exceed `max_pieces` (the
+  // Cuts `region` (convex, counter-clockwise) into pieces. False when there are more than
+  // kMaxGrooves grooves, or the pieces of the surface, or those of its walls, would exceed `max_pieces` (the
   // caller then tries a smaller region, then fewer grooves, and past that falls back to the blend).
   bool build(const Poly& region, const std::vector<Groove>& grooves, size_t max_pieces = kMaxPieces);
   const std::vector<Piece>& pieces() const { return pieces_; }
@@ -364,6 +367,8 @@ class Surface {
   std::vector<PartIndex> part_index_;
   bool parts_indexed_ = false;  // part_index_ is for grooves_ (build() may stop before it)
   void indexParts(const Poly& region);
+  template <size_t N>
+  bool cutPieces(const Poly& region, const std::vector<Groove>& grooves, size_t max_pieces);
   static int partBin(const PartIndex& ix, double v, int axis);
   const Groove* partOf(size_t gi, Vec2d p) const;
   // Groove gi's height at p (a groove of parts: the part that holds p); false where no part does.

@@ -1965,7 +1965,9 @@ class Tracer {
     // single groove's section, beyondRegion), but the crossing itself is still integrated
     // exactly. The reach toward the viewer (`view_reach`) is always kept, so what hides the
     // footprint is never lost. A smaller region also leaves out the grooves that do not
-    // reach it (they add no piece), which counts for the cap of grooves per footprint. On the
+    // reach it (they add no piece), which counts for the cap of grooves per footprint (16 since
+    // 2026-11-30: with 8, a dozen scratches seen close lost the shadows of those beyond half the
+    // reach; docs/grooves.md, "Sixteen grooves"). On the
     // accuracy test's `dense` scene (6 + 6 crossing scratches under the bar light) no footprint
     // falls back any more, and the pixels >= 10 went from 2.27% to 0.02% (docs/grooves.md, "Cost
     // bound and fallback").
@@ -2030,9 +2032,9 @@ class Tracer {
         tried = true;
       }
     }
-    // Past the caps at every reach (a dense cluster: more than 8 grooves within the smallest one,
+    // Past the caps at every reach (a dense cluster: more than 16 grooves within the smallest one,
     // or too many pieces): the polygons over the smallest region with only the grooves nearest the
-    // footprint's centre, 8, then 6, then 4 of them. The footprint's own surface stays exact as
+    // footprint's centre, 16, then 8, 6 and 4 of them. The footprint's own surface stays exact as
     // long as no more grooves than that pass through it; what is lost is the shadows and
     // reflections of the farther ones. Only past that too does the footprint go to the blend,
     // which keeps at most three directions and no shadows between grooves (on the fuzzer's
@@ -2043,7 +2045,7 @@ class Tracer {
     // accuracy test's `tips` under the bar had one footprint past the caps with its bends).
     if (std::count(bent.begin(), bent.end(), 1)) return buildArea(sp, near, ref, enlarge, view_reach, gs, false);
     std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return near_mm[a] < near_mm[b]; });
-    for (size_t n : {ga::Surface::kMaxGrooves, size_t(6), size_t(4)}) {
+    for (size_t n : {ga::Surface::kMaxGrooves, ga::Surface::kSmallGrooves, size_t(6), size_t(4)}) {
       if (n >= order.size()) continue;  // as many as that were tried above
       within.clear();
       for (size_t k = 0; k < n; ++k) within.push_back(grooves[order[k]]);

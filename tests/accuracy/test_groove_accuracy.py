@@ -423,10 +423,10 @@ class GrooveAccuracy(unittest.TestCase):
         self.assertGreater(used["polygons"], 0)
 
     def test_star_past_the_polygon_caps(self):
-        """Twelve grooves through one spot: footprints with more than eight grooves within a
+        """Twelve grooves through one spot: footprints whose pieces pass the cap even within a
         quarter of the shadow reach are past the polygons' caps, and are integrated by polygons
-        over the eight (or six, or four) grooves nearest them (docs/grooves.md, "Cost bound and
-        fallback"). Not one of the issue's target scenes; the bounds are regression bounds
+        over the grooves nearest them (docs/grooves.md, "Cost bound and fallback"; with the cap of
+        8 grooves before 2026-11-30, 50 footprints, with 16, 27 and the same figures). Not one of the issue's target scenes; the bounds are regression bounds
         (measured against geometry at 256 spp, whose own noise against a second reference is
         0.12% of pixels >= 10 and mean 0.45: 2026-11-25 1.53% and 0.91; 2026-11-26, with the
         smaller reaches, 0.71% and 0.66; with the cap of pieces at 1,200 instead of 600, 0.35% and

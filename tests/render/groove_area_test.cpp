@@ -959,6 +959,44 @@ TEST(GrooveArea, EveryStepUpHasItsWallWithACorner) {
   EXPECT_EQ(c.missing, 0);
 }
 
+// Up to kMaxGrooves (16) grooves make one surface: the cells of more than kSmallGrooves (8) hold
+// the larger arrays of planes. Twelve grooves through one spot (some ending abruptly, some
+// tapering) give pieces that tile the region with the composite's height everywhere and a wall at
+// every step up; with one groove more than the cap, build() refuses.
+TEST(GrooveArea, TwelveGroovesMakeOneSurface) {
+  std::vector<Groove> gs;
+  for (int i = 0; i < 12; ++i) {
+    Groove g = along(dirOf(11 + 15 * i), 0.005 * (i - 5.5), i);
+    if (i % 4 == 1) g.t_hi = 0.03 + 0.005 * i;  // an abrupt end in the region
+    if (i % 4 == 3) g.rho = -5, g.t_hi = 0.2;   // a tapered one
+    gs.push_back(g);
+  }
+  static_assert(Surface::kMaxGrooves >= 12 && Surface::kSmallGrooves < 12, "the test needs the larger cells");
+  Surface s;
+  ASSERT_TRUE(s.build(rect(-0.1, -0.1, 0.1, 0.1), gs, Surface::kMaxPiecesClose));
+  double area = 0;
+  for (const Piece& pc : s.pieces())
+    if (!pc.wall) area += pc.poly.area();
+  EXPECT_NEAR(area, 0.04, 1e-9);
+  double worst = 0;
+  for (int j = 0; j < 60; ++j)
+    for (int i = 0; i < 60; ++i) {
+      const Vec2d p(-0.1 + (i + 0.37) * 0.2 / 60, -0.1 + (j + 0.61) * 0.2 / 60);
+      const int k = pieceAt(s, p);
+      ASSERT_GE(k, 0);
+      worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - composite(gs, p)));
+    }
+  EXPECT_LT(worst, 1e-9);
+  const StepCount c = stepsAndWalls(s, gs, 0.099);
+  std::printf("[          ] %zu pieces, %zu walls, %d steps up, %d without a wall, heights off by %.1e mm\n",
+              s.pieces().size(), s.walls().size(), c.steps, c.missing, worst);
+  EXPECT_GT(c.steps, 20);
+  EXPECT_EQ(c.missing, 0);
+  std::vector<Groove> more = gs;
+  while (more.size() <= Surface::kMaxGrooves) more.push_back(along(dirOf(double(more.size())), 0.02, int(more.size())));
+  EXPECT_FALSE(s.build(rect(-0.1, -0.1, 0.1, 0.1), more, Surface::kMaxPiecesClose));
+}
+
 // A chain of bends has tens to hundreds of parts; Surface finds the part that holds a point through a grid
 // of the parts' boxes over its region (heightAt, and the cells of build). Over a small region and
 // over a large one (other bins, other boxes) it gives the same height to the last bit, inside the

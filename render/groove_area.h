@@ -262,8 +262,9 @@ class Surface {
   static constexpr size_t kPartsIndexed = 32;
 
   // Cuts `region` (convex, counter-clockwise) into pieces. False when there are more than
-  // kMaxGrooves grooves, or the pieces of the surface, or those of its walls, would exceed `max_pieces` (the
-  // caller then tries a smaller region, then fewer grooves, and past that falls back to the blend).
+  // kMaxGrooves grooves, or the pieces of the surface, or those of its walls, would exceed
+  // `max_pieces` (the caller then tries a smaller region, then fewer grooves, and past that falls
+  // back to the blend).
   bool build(const Poly& region, const std::vector<Groove>& grooves, size_t max_pieces = kMaxPieces);
   const std::vector<Piece>& pieces() const { return pieces_; }
 

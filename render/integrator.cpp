@@ -1967,10 +1967,9 @@ class Tracer {
     // footprint is never lost. A smaller region also leaves out the grooves that do not
     // reach it (they add no piece), which counts for the cap of grooves per footprint (16 since
     // 2026-11-30: with 8, a dozen scratches seen close lost the shadows of those beyond half the
-    // reach; docs/grooves.md, "Sixteen grooves"). On the
-    // accuracy test's `dense` scene (6 + 6 crossing scratches under the bar light) no footprint
-    // falls back any more, and the pixels >= 10 went from 2.27% to 0.02% (docs/grooves.md, "Cost
-    // bound and fallback").
+    // reach; docs/grooves.md, "Sixteen grooves"). On the accuracy test's `dense` scene (6 + 6
+    // crossing scratches under the bar light) no footprint falls back any more, and the pixels
+    // >= 10 went from 2.27% to 0.02% (docs/grooves.md, "Cost bound and fallback").
     if (!gs.surface_built) {
       std::swap(gs.surface, spareSurface());
       gs.surface_built = true;

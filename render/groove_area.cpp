@@ -1250,13 +1250,7 @@ bool Surface::build(const Poly& region, const std::vector<Groove>& grooves, size
       if (!all) {
         if (!binned) binPieces();
         binned = true;
-        const int c0 = binOf(slo.x, 0), c1 = binOf(shi.x, 0), r0 = binOf(slo.y, 1), r1 = binOf(shi.y, 1);
-        for (size_t w = 0; w < words_; ++w) {
-          uint64_t cols = 0, rows = 0;
-          for (int c = c0; c <= c1; ++c) cols |= col_bits_[size_t(c) * words_ + w];
-          for (int r = r0; r <= r1; ++r) rows |= row_bits_[size_t(r) * words_ + w];
-          for (uint64_t m = cols & rows; m; m &= m - 1) beyond.push_back(w * 64 + size_t(__builtin_ctzll(m)));
-        }
+        inBins(binOf(slo.x, 0), binOf(shi.x, 0), binOf(slo.y, 1), binOf(shi.y, 1), beyond);
       }
       for (size_t k = 0, count = all ? n_flat : beyond.size(); k < count; ++k) {
         const size_t qi = all ? k : beyond[k];
@@ -1389,6 +1383,10 @@ void Surface::candidates(const Plane& P, double den, Vec3d d, Vec2d lo, Vec2d hi
   const int c1 = binOf(std::max(hi.x, hi.x + lmax * d.x) + margin, 0);
   const int r0 = binOf(std::min(lo.y, lo.y + lmax * d.y) - margin, 1);
   const int r1 = binOf(std::max(hi.y, hi.y + lmax * d.y) + margin, 1);
+  inBins(c0, c1, r0, r1, out);
+}
+
+void Surface::inBins(int c0, int c1, int r0, int r1, std::vector<size_t>& out) const {
   for (size_t w = 0; w < words_; ++w) {
     uint64_t cols = 0, rows = 0;
     for (int c = c0; c <= c1; ++c) cols |= col_bits_[size_t(c) * words_ + w];

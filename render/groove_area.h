@@ -347,6 +347,8 @@ class Surface {
   // The pieces, in order, whose bins meet the box where an occluder of P's portion in [lo, hi]
   // along d (den: P's N.d, > 0) can lie: a superset of those that can shadow it.
   void candidates(const Plane& P, double den, Vec3d d, Vec2d lo, Vec2d hi, std::vector<size_t>& out) const;
+  // Appends the pieces, in order, that are in one of the columns c0..c1 and one of the rows r0..r1.
+  void inBins(int c0, int c1, int r0, int r1, std::vector<size_t>& out) const;
   std::vector<Wall> walls_;
   std::vector<Groove> grooves_;
   Vec2d region_lo_{0, 0}, region_hi_{0, 0};  // the box of the region build() was given

@@ -126,6 +126,22 @@ double area(const std::vector<Poly>& frags) {
   return a;
 }
 
+bool centroid(const std::vector<Poly>& frags, Vec2d& c) {
+  // Each fragment's, by area (fan triangles from its first vertex).
+  Vec2d m(0, 0);
+  double a = 0;
+  for (const Poly& f : frags)
+    for (int i = 1; i + 1 < f.n; ++i) {
+      const Vec2d v0 = f.v[0], v1 = f.v[size_t(i)], v2 = f.v[size_t(i) + 1];
+      const double t = 0.5 * cross(v1 - v0, v2 - v0);
+      m = m + (v0 + v1 + v2) * (t / 3.0);
+      a += t;
+    }
+  if (!(a > 0)) return false;
+  c = m * (1.0 / a);
+  return true;
+}
+
 void subtract(std::vector<Poly>& frags, const Poly& s, size_t cap, size_t& dropped) {
   if (s.empty()) return;
   const BBox sb(s);
@@ -1598,17 +1614,9 @@ Hits Surface::scatter(const Portion& p, Vec3d d) const {
   }
   h.escaped = p.density * area(rest);
   if (!(d.z > 0) && h.escaped > 0) {
-    // The centroid of the rest: each fragment's, by area (fan triangles from its first vertex).
-    Vec2d c(0, 0);
-    double a = 0;
-    for (const Poly& f : rest)
-      for (int i = 1; i + 1 < f.n; ++i) {
-        const Vec2d v0 = f.v[0], v1 = f.v[size_t(i)], v2 = f.v[size_t(i) + 1];
-        const double t = 0.5 * cross(v1 - v0, v2 - v0);
-        c = c + (v0 + v1 + v2) * (t / 3.0);
-        a += t;
-      }
-    if (a > 0) h.escaped_at = c * (1.0 / a);
+    // The centroid of the rest.
+    Vec2d c;
+    if (centroid(rest, c)) h.escaped_at = c;
   }
   return h;
 }

@@ -389,6 +389,8 @@ class Surface {
 
 // Area of a fragment list.
 double area(const std::vector<Poly>& frags);
+// Its centroid (c), false (c untouched) where its area is not positive.
+bool centroid(const std::vector<Poly>& frags, Vec2d& c);
 // frags minus the convex polygon s (in place); at most `cap` fragments are kept (the smallest
 // dropped, counted in `dropped`).
 void subtract(std::vector<Poly>& frags, const Poly& s, size_t cap, size_t& dropped);

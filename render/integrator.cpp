@@ -342,20 +342,32 @@ class Tracer {
       s_.defect_index.forEach(sp.uv, q.footprint(), [&](const Defect& d) { d.shade(q, ds); });
     }
     if (ds.height_grad.x == 0 && ds.height_grad.y == 0) return ds;
-    Vec3f N = cross(sp.dpdu, sp.dpdv);
-    float n2 = dot(N, N);
-    Vec3f pu = cross(sp.dpdv, N) / n2, pv = cross(N, sp.dpdu) / n2;  // dual basis
-    Vec3f grad = pu * ds.height_grad.x + pv * ds.height_grad.y;
-    // The height is measured along the outward normal. A ray from behind (the back of a sheet, the
-    // inside of a glass part) sees the same surface turned over: with the normal flipped, the
-    // height is negated too (digest §8.3), so a dent seen from behind reads as a bump.
-    grad = grad - sp.ns * dot(grad, sp.ns);
-    Vec3f n = normalize(sp.outside ? sp.ns - grad : sp.ns + grad);
+    Vec3f n = normalize(sp.ns - surfaceGradient(sp, ds.height_grad));
     // Keep the perturbed normal in the hemisphere of the viewer (digest §8.3, hemisphere safety).
     float c = dot(n, wo_world);
     if (c < 0.02f) n = normalize(n + wo_world * (0.02f - c));
     sp.ns = n;
     return ds;
+  }
+
+  // The dual basis of (dpdu, dpdv) in the tangent plane: dot(pu, d) and dot(pv, d) are the UV
+  // change along a tangent displacement d.
+  static void dualBasis(const SurfacePoint& sp, Vec3f& pu, Vec3f& pv) {
+    Vec3f N = cross(sp.dpdu, sp.dpdv);
+    float n2 = dot(N, N);
+    pu = cross(sp.dpdv, N) / n2, pv = cross(N, sp.dpdu) / n2;
+  }
+  // The world vector that a height gradient h (per UV, in mm) at sp takes off the shading normal:
+  // n' = normalize(ns - surfaceGradient(sp, h)).
+  static Vec3f surfaceGradient(const SurfacePoint& sp, Vec2f h) {
+    Vec3f pu, pv;
+    dualBasis(sp, pu, pv);
+    Vec3f grad = pu * h.x + pv * h.y;
+    // The height is measured along the outward normal. A ray from behind (the back of a sheet, the
+    // inside of a glass part) sees the same surface turned over: with the normal flipped, the
+    // height is negated too (digest §8.3), so a dent seen from behind reads as a bump.
+    grad = grad - sp.ns * dot(grad, sp.ns);
+    return sp.outside ? grad : -grad;
   }
 
   static float footprintOf(const SurfacePoint& sp) {
@@ -708,6 +720,7 @@ class Tracer {
       // Camera hits on scratches: the groove renderer integrates the whole footprint.
       if (depth == 0 && grooves_ && sp.uv_ok && grooved != 0) {
         if (grooved == 1 || gatherGrooves(sp, h, wo_w, sets)) {
+          if (has_paint_ && s_.paint->hasPeel()) setPeel(sp, sets);
           // Weathering over the groove (rust that grew from a bared scratch) covers its facets
           // too: with probability `cover` every facet takes the weathered surface.
           if (has_weathering_) {
@@ -916,6 +929,15 @@ class Tracer {
     float share = 1.0f;
     groove::Section section_without;  // the section without the ending grooves (when end_share < 1)
     bool one_material = false;        // every facet shows the top material (weathered grooves)
+    // The clear coat's orange peel on the uncut surface (car paint; docs/grooves.md, "Orange peel
+    // beside a scratch"): the flat facets and the pieces at the base height take the peel's slope
+    // at their own place (flatNormal), as the explicit geometry's uncut triangles do; cut ones
+    // have none. Null where there is no peel.
+    const PaintVariation* paint = nullptr;
+    Vec2f uv0{0.0f, 0.0f};                      // the UV (mm) of F
+    Vec2f uv_t{0.0f, 0.0f}, uv_b{0.0f, 0.0f};   // UV per mm along T and B
+    Vec3f peel_u{0.0f, 0.0f, 0.0f}, peel_v{0.0f, 0.0f, 0.0f};  // slope per unit of the UV gradient
+    float paint_fp = 0.0f;  // the pixel's footprint (UV mm), which filters the peel's octaves
     // Crossings and ends: area sampling with polygons (Bosch §4.2.4, render/groove_area.h) over
     // the footprint polygon `fp2`, in the frame (T, B, W) centred on F. The fallback above is used
     // only when the pieces would pass groove::area::Surface's caps.
@@ -2150,6 +2172,28 @@ class Tracer {
     const LightGuides* guides = nullptr;
   };
 
+  // The normal of the uncut surface at (t, b) of a groove set's frame: W tilted by the clear coat's
+  // orange peel there (GrooveSet::paint), as applyDefects tilts a camera hit's. The peel is
+  // filtered over the pixel's footprint, or over `extent` (mm) where a portion is larger.
+  static Vec3f flatNormal(const GrooveSet& gs, double t, double b, double extent = 0) {
+    const Vec2f uv = gs.uv0 + gs.uv_t * float(t) + gs.uv_b * float(b);
+    const Vec2f h = gs.paint->coatHeightGrad(uv, std::max(gs.paint_fp, float(extent)));
+    return normalize(gs.W - gs.peel_u * h.x - gs.peel_v * h.y);
+  }
+  // Gives a camera hit's groove sets the peel (GrooveSet::paint), in each one's frame.
+  void setPeel(const SurfacePoint& sp, std::vector<GrooveSet>& sets) const {
+    Vec3f pu, pv;
+    dualBasis(sp, pu, pv);
+    const Vec3f gu = surfaceGradient(sp, Vec2f(1.0f, 0.0f)), gv = surfaceGradient(sp, Vec2f(0.0f, 1.0f));
+    for (GrooveSet& gs : sets) {
+      gs.paint = s_.paint.get();
+      gs.uv0 = sp.uv + Vec2f(dot(gs.F - sp.p, pu), dot(gs.F - sp.p, pv));
+      gs.uv_t = Vec2f(dot(gs.T, pu), dot(gs.T, pv));
+      gs.uv_b = Vec2f(dot(gs.B, pu), dot(gs.B, pv));
+      gs.peel_u = gu, gs.peel_v = gv;
+      gs.paint_fp = footprintOf(sp);
+    }
+  }
   // The two ways of integrating over a footprint share the shading below (shadeLevel); they
   // differ in their geometry, given by these policies: the facet normal and layer of a portion,
   // its lit fraction for light sample li, and where rays leaving it in a direction go.
@@ -2160,7 +2204,16 @@ class Tracer {
     const GrooveSet& gs;
     const groove::Section& sec;
     const std::vector<groove::Shadowing>& shadow;  // per light sample
-    Vec3f normal(const Portion& p) const { return facetNormal(size_t(p.facet)); }
+    Vec3f normal(const Portion& p) const {
+      const size_t k = size_t(p.facet);
+      if (gs.paint && flat(k)) {
+        const double b0 = groove::pointOn(sec, p.facet, p.t0).x, b1 = groove::pointOn(sec, p.facet, p.t1).x;
+        return flatNormal(gs, 0.0, 0.5 * (b0 + b1), std::fabs(b1 - b0));
+      }
+      return facetNormal(k);
+    }
+    // The uncut base (w = 0 at both ends: the explicit geometry's triangles there have height 0).
+    bool flat(size_t k) const { return sec.pts[k].y == 0 && sec.pts[k + 1].y == 0; }
     int layer(const Portion& p) const { return facetLayer(size_t(p.facet)); }
     double lit(const Portion& p, size_t li) const { return shadow[li].litFraction(p, gs.fp); }
     groove::Scatter scatter(const Portion& p, Vec3f d) const {
@@ -2175,6 +2228,8 @@ class Tracer {
     // mirror a bar into the walls).
     size_t facets() const { return sec.facets(); }
     Vec3f facetNormal(size_t k) const {
+      // A flat facet's peel where it comes nearest the footprint's centre.
+      if (gs.paint && flat(k)) return flatNormal(gs, 0.0, std::clamp(0.0, sec.pts[k].x, sec.pts[k + 1].x));
       Vec2d n2 = sec.normal(k);
       const double tilt = sec.tiltOf(k);
       if (tilt == 0) return gs.B * float(n2.x) + gs.W * float(n2.y);
@@ -2197,7 +2252,17 @@ class Tracer {
     const GrooveSet& gs;
     const std::vector<Vec3d>& light;  // per light sample, in (T, B, W)
     Vec3d local(Vec3f d) const { return Vec3d(dot(d, gs.T), dot(d, gs.B), dot(d, gs.W)); }
-    Vec3f normal(const Portion& p) const { return facetNormal(size_t(p.piece)); }
+    Vec3f normal(const Portion& p) const {
+      Vec2d c;
+      if (gs.paint && flat(size_t(p.piece)) && groove::area::centroid(p.frags, c))
+        return flatNormal(gs, c.x, c.y, std::sqrt(groove::area::area(p.frags)));
+      return facetNormal(size_t(p.piece));
+    }
+    // A piece at the base height (the uncut surface).
+    bool flat(size_t k) const {
+      const groove::area::Plane& pl = gs.surface.pieces()[k].plane;
+      return pl.z0 == 0 && pl.g.x == 0 && pl.g.y == 0;
+    }
     int layer(const Portion& p) const { return facetLayer(size_t(p.piece)); }
     double lit(const Portion& p, size_t li) const { return gs.surface.litFraction(p, light[li], li); }
     groove::area::Hits scatter(const Portion& p, Vec3f d) const { return gs.surface.scatter(p, local(d)); }
@@ -2205,6 +2270,7 @@ class Tracer {
     // The facets (a portion lies on one), which a chain direction may aim at (Chain): the pieces.
     size_t facets() const { return gs.surface.pieces().size(); }
     Vec3f facetNormal(size_t k) const {
+      if (gs.paint && flat(k)) return flatNormal(gs, 0.0, 0.0);  // the peel at the footprint's centre
       Vec3d n = gs.surface.pieces()[k].plane.normal();
       return normalize(gs.T * float(n.x) + gs.B * float(n.y) + gs.W * float(n.z));
     }
@@ -2310,6 +2376,15 @@ class Tracer {
     const Vec2d c2 = a2 - q->bdir * b;
     hs.F = gs.F + gs.T * float(c2.x) + gs.B * float(c2.y);
     hs.one_material = gs.one_material;
+    // The peel in its frame: its F at (c2.x, c2.y) of the footprint's (T, B), its B at bdir, and
+    // its T = B x W = bdir.y T - bdir.x B.
+    hs.paint = gs.paint;
+    if (hs.paint) {
+      hs.uv0 = gs.uv0 + gs.uv_t * float(c2.x) + gs.uv_b * float(c2.y);
+      hs.uv_b = gs.uv_t * float(q->bdir.x) + gs.uv_b * float(q->bdir.y);
+      hs.uv_t = gs.uv_t * float(q->bdir.y) - gs.uv_b * float(q->bdir.x);
+      hs.peel_u = gs.peel_u, hs.peel_v = gs.peel_v, hs.paint_fp = gs.paint_fp;
+    }
     hs.fp = groove::Footprint{0.0, 0.0};  // (a point portion: its weights do not use it)
     hs.section = groove::merge({placed}, sectionExtent(std::fabs(b)));
     int facet = -1;

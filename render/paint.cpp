@@ -97,6 +97,18 @@ float PaintVariation::residualFlakeAmount(float flake_amount, const PaintSample&
   return clampf((fa - cw) / (1.0f - cw), 0.0f, 1.0f);
 }
 
+Vec2f PaintVariation::peelGrad(Vec2f uv, float fp) const {
+  if (peel_scale_ == 0.0f) return Vec2f(0.0f, 0.0f);
+  Vec2f g;
+  fbm2(peel_noise_, uv, peel_fbm_, fp, &g);
+  return g * peel_scale_;
+}
+
+Vec2f PaintVariation::coatHeightGrad(Vec2f uv, float footprint) const {
+  if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) return Vec2f(0.0f, 0.0f);
+  return peelGrad(uv, nonNegative(footprint));
+}
+
 PaintSample PaintVariation::evaluate(Vec2f uv, float footprint, float u_rand) const {
   PaintSample s;
   s.flake_coverage = coverage_;
@@ -105,11 +117,7 @@ PaintSample PaintVariation::evaluate(Vec2f uv, float footprint, float u_rand) co
   const float fp = nonNegative(footprint);
 
   // 1. Orange peel (digest §9 step 2): the gradient of the footprint-filtered height field.
-  if (peel_scale_ != 0.0f) {
-    Vec2f g;
-    fbm2(peel_noise_, uv, peel_fbm_, fp, &g);
-    s.coat_height_grad = g * peel_scale_;
-  }
+  s.coat_height_grad = peelGrad(uv, fp);
 
   // 2. Base colour (luminance only).
   if (color_scale_ != 0.0f) {

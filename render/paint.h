@@ -134,7 +134,11 @@ class PaintVariation {
 
   // The orange-peel height (mm) whose gradient evaluate() reports (for tests, AOVs, debugging).
   float coatHeight(Vec2f uv_mm, float footprint_mm = 0.0f) const;
+  // Its gradient alone, as evaluate() reports it (coat_height_grad): the groove renderer's flat
+  // facets beside a scratch take it at their own place in the footprint.
+  Vec2f coatHeightGrad(Vec2f uv_mm, float footprint_mm) const;
 
+  bool hasPeel() const { return peel_scale_ != 0.0f; }  // orange peel on
   float cellSize() const { return cell_; }       // mm; 0 when there are no flakes
   float flakeCoverage() const { return coverage_; }
   const PaintVariationParams& params() const { return p_; }
@@ -152,6 +156,8 @@ class PaintVariation {
   static float residualFlakeAmount(float flake_amount, const PaintSample& s);
 
  private:
+  Vec2f peelGrad(Vec2f uv, float fp) const;  // uv finite, fp >= 0
+
   PaintVariationParams p_;
   SimplexNoise peel_noise_, color_noise_, passive_noise_;
   FbmParams peel_fbm_, color_fbm_, passive_fbm_;

@@ -52,6 +52,22 @@ LAYOUTS = {
     fade_mm: 0
     region: [0.48, 0.48, 0.52, 0.52]
 """,
+    # Painted (material "paint"): one straight scratch cut by a tool tilted 11 degrees partly
+    # forward (azimuth 30), whose pile-up on the light's side has a flank of 48 degrees. Under the
+    # bar it mirrors the view down onto the paint beside it at 6.5 degrees, and the orange peel
+    # there tilts some of that up into the bar (the fuzzer's c12_17, 2026-11-30).
+    "peelside": """
+  - type: scratch
+    count: 1
+    pattern: path
+    center: [0.4883, 0.5112]
+    path_mm: [-3.2766, 2.2943, 3.2766, -2.2943]
+    force_kg: 3.93
+    hardness_hv: 60
+    perturbation: 0
+    tool_tilt_deg: 11
+    tool_tilt_azimuth_deg: 30
+""",
     # Five short scratches in various directions, ends and fades inside the view.
     "ends": """
   - type: scratch

@@ -629,8 +629,11 @@ double Shadowing::litFraction(const Portion& p, const Footprint& fp) const {
 // one facet first (or none), and the hit points are an affine image of the piece, so the two end
 // rays give the hit portion. Consecutive pieces meeting the same facet are one affine image and
 // are reported as one portion. A ray that meets nothing leaves the section: upwards it escapes,
-// downwards (d_w <= 0) it passes the flat ends beyond +-extent, and it is counted as escaped too
-// (the caller continues it with an ordinary scene ray). Shares are the footprint weights of the
+// downwards (d_w <= 0) it passes the flat ends beyond +-extent, and it is counted as escaped too.
+// The integrator continues the upward share with an ordinary scene ray and drops the downward one:
+// the renderer's extents reach past the footprint's reach by 200 times the grooves' height and
+// depth and a millimetre more (Tracer::sectionExtent), so only rays within 0.3 degrees of the base
+// plane get that far. Shares are the footprint weights of the
 // pieces scaled so that they sum to p.weight exactly.
 Scatter scatter(const Section& s, const Portion& p, const Footprint& fp, Vec2d d_bw) {
   Scatter out;

@@ -712,15 +712,19 @@ class Tracer {
       const bool glass_split = depth == 1 && m.kind == MaterialKind::Glass;
       if (glass_split) m.reflect_share = 0.5f;
       Vec2f peel(0.0f, 0.0f);
+      bool flake_lobe = false;  // a resolved flake's lobe, its normal given in the frame (ns, dpdu)
       if (has_paint_ && sp.uv_ok) {
         PaintSample ps = s_.paint->evaluate(sp.uv, footprintOf(sp), rng.uniform());
         peel = ps.coat_height_grad;
+        flake_lobe = ps.use_flake_lobe;
         applyPaint(m, ps);
       }
       // Camera hits on scratches: the groove renderer integrates the whole footprint.
       if (depth == 0 && grooves_ && sp.uv_ok && grooved != 0) {
         if (grooved == 1 || gatherGrooves(sp, h, wo_w, sets)) {
           if (has_paint_ && s_.paint->hasPeel()) setPeel(sp, sets);
+          if (flake_lobe)
+            for (GrooveSet& gs : sets) gs.frame_t = sp.dpdu;
           // Weathering over the groove (rust that grew from a bared scratch) covers its facets
           // too: with probability `cover` every facet takes the weathered surface.
           if (has_weathering_) {
@@ -938,6 +942,10 @@ class Tracer {
     Vec2f uv_t{0.0f, 0.0f}, uv_b{0.0f, 0.0f};   // UV per mm along T and B
     Vec3f peel_u{0.0f, 0.0f, 0.0f}, peel_v{0.0f, 0.0f, 0.0f};  // slope per unit of the UV gradient
     float paint_fp = 0.0f;  // the pixel's footprint (UV mm), which filters the peel's octaves
+    // The tangent of the facets' shading frames: T, or where the camera hit drew a resolved paint
+    // flake's lobe, the surface's dpdu, the frame its flake normal is given in (as the path
+    // tracer's frame at every hit), so that the same flake sparkles as in the explicit geometry.
+    std::optional<Vec3f> frame_t;
     // Crossings and ends: area sampling with polygons (Bosch §4.2.4, render/groove_area.h) over
     // the footprint polygon `fp2`, in the frame (T, B, W) centred on F. The fallback above is used
     // only when the pieces would pass groove::area::Surface's caps.
@@ -2172,6 +2180,7 @@ class Tracer {
     const LightGuides* guides = nullptr;
   };
 
+  static Vec3f frameTangent(const GrooveSet& gs) { return gs.frame_t ? *gs.frame_t : gs.T; }
   // The normal of the uncut surface at (t, b) of a groove set's frame: W tilted by the clear coat's
   // orange peel there (GrooveSet::paint), as applyDefects tilts a camera hit's. The peel is
   // filtered over the pixel's footprint, or over `extent` (mm) where a portion is larger.
@@ -2376,6 +2385,7 @@ class Tracer {
     const Vec2d c2 = a2 - q->bdir * b;
     hs.F = gs.F + gs.T * float(c2.x) + gs.B * float(c2.y);
     hs.one_material = gs.one_material;
+    hs.frame_t = gs.frame_t;
     // The peel in its frame: its F at (c2.x, c2.y) of the footprint's (T, B), its B at bdir, and
     // its T = B x W = bdir.y T - bdir.x B.
     hs.paint = gs.paint;
@@ -2514,7 +2524,7 @@ class Tracer {
       if (!(q.weight > 0)) continue;
       const Vec3f N = geo.normal(q);
       const Material& m = facetMaterial(gs, geo.layer(q), top);
-      const Frame fr = Frame::fromNormalTangent(N, gs.T);
+      const Frame fr = Frame::fromNormalTangent(N, frameTangent(gs));
       seen.push_back({&q, N, reflect(-wo_w, N), lobeCone(m), fr, BsdfAt(m, fr.toLocal(wo_w))});
     }
     // The facets with a sharp lobe that face a seen portion.
@@ -2548,7 +2558,7 @@ class Tracer {
         for (const auto& q : seen)
           if (dot(q.N, d0) > 0) covered = covered || q.cone < 0 || dot(d0, q.mirror) >= q.cone;
         if (covered) continue;
-        const Frame fr = Frame::fromNormalTangent(N, gs.T);
+        const Frame fr = Frame::fromNormalTangent(N, frameTangent(gs));
         const Vec3f wl = fr.toLocal(l.wl), v0l = fr.toLocal(v0);
         const BsdfAt bk(m, wl);
         const float pk = bk.pdf(v0l);
@@ -2616,7 +2626,7 @@ class Tracer {
     std::optional<PortionBsdf> local;
     std::optional<PortionBsdf>& e = bsdfs ? (*bsdfs)[pi] : local;
     if (!e) {
-      const Frame f = Frame::fromNormalTangent(geo.normal(p), geo.gs.T);
+      const Frame f = Frame::fromNormalTangent(geo.normal(p), frameTangent(geo.gs));
       e.emplace(m, f, f.toLocal(wo_w));
     }
     const Frame& fr = e->fr;
@@ -2669,7 +2679,7 @@ class Tracer {
     if (!(q.weight > 0)) return L;
     // The facet seen from the solid: its normal turned into the solid, the relative index inverted.
     const Material m = facing(facetMaterial(gs, geo.layer(q), top), false);
-    const Frame fr = Frame::fromNormalTangent(-geo.normal(q), gs.T);
+    const Frame fr = Frame::fromNormalTangent(-geo.normal(q), frameTangent(gs));
     const Vec3f wo = fr.toLocal(-d);
     if (wo.z <= 0) return L;
     BsdfSample bs;
@@ -2729,7 +2739,7 @@ class Tracer {
     for (const auto& p : portions) {
       Vec3f N = geo.normal(p);
       const Material& m = facetMaterial(gs, geo.layer(p), top);
-      Frame fr = Frame::fromNormalTangent(N, gs.T);
+      Frame fr = Frame::fromNormalTangent(N, frameTangent(gs));
       Vec3f wo = fr.toLocal(wo_w);
       if (wo.z <= 0) continue;
       const BsdfAt bsdf(m, wo);
@@ -2875,7 +2885,7 @@ class Tracer {
       const auto& p = *pp;
       if (!(p.weight > 0)) continue;
       const Material& m = facetMaterial(gs, geo.layer(p), top);
-      Frame fr = Frame::fromNormalTangent(geo.normal(p), gs.T);
+      Frame fr = Frame::fromNormalTangent(geo.normal(p), frameTangent(gs));
       const Vec3f wo = fr.toLocal(wo_w), wi = fr.toLocal(d);
       if (wo.z <= 0 || wi.z <= 0) continue;
       const BsdfAt bsdf(m, wo);
@@ -2952,7 +2962,7 @@ class Tracer {
     thread_local LightGuides guides;
     ls.guides = nullptr;
     if (guided_) {
-      const Frame fr = Frame::fromNormalTangent(gs.W, gs.T);
+      const Frame fr = Frame::fromNormalTangent(gs.W, frameTangent(gs));
       const Vec3f wo = fr.toLocal(wo_w);
       if (wo.z > 0 && seesOnlyFlat(sets, wo_w) && buildGuides(origin, gs.W, fr, BsdfAt(top, wo), guides))
         ls.guides = &guides;

@@ -39,6 +39,7 @@ struct PartTri {
   Vec3d ng;     // unit winding normal (the outside)
   Vec2d lo, hi; // UV box
   double area2; // twice the signed UV area (< 0: the chart is mirrored here)
+  float mm_per_uv = 0;  // the part's chart scale on it (TriangleMesh::mmPerUv), 0 where unknown
 };
 
 bool uvLess(Vec2d a, Vec2d b) { return std::tie(a.x, a.y) < std::tie(b.x, b.y); }
@@ -231,6 +232,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       continue;
     }
     pt.ng = g / length(g);
+    if (part.mmPerUv.size() == part.triangleCount()) pt.mm_per_uv = part.mmPerUv[f];
     for (int k = 0; k < 3; ++k) {
       Vec3d n = has_normals ? normalize(Vec3d(part.normals[id[k]])) : pt.ng;
       pt.n[k] = dot(n, pt.ng) > 0 ? n : pt.ng;  // as the renderer: a normal facing inward is ignored
@@ -363,6 +365,10 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
     std::vector<Vec2f> uvs;
     std::vector<float> heights;
     std::vector<uint32_t> indices;
+    // Per triangle, the chart scale of the part triangle it was cut from (`scale`, set per part
+    // triangle): a cut surface keeps the part's chart, whatever its slope.
+    std::vector<float> chart;
+    float scale = 0;
     size_t vertices = 0;
     uint32_t vertex(Vec3f p, Vec2f uv, Vec3f n, float h) {
       ++vertices;
@@ -377,6 +383,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       ++triangles;
       if (count_only) return;
       indices.insert(indices.end(), {a, b, c});
+      chart.push_back(scale);
     }
   };
   const size_t block = 1024;
@@ -608,6 +615,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       trianglesUnder(q00, q11, tris);
       for (uint32_t ti : tris) {
         const PartTri& pt = cut[ti];
+        out.scale = pt.mm_per_uv;
         // Clip the cell to the triangle: keep where each edge function (the signed distance from
         // the edge's line, computed from its ends in a fixed order, positive inside) is >= 0.
         // Values within a rounding distance of the line count as on it.
@@ -862,7 +870,18 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       out.indices[v] = uint32_t(v);
     }
   }
-  out.computeMmPerUv();
+  // The chart's scale: each cut triangle keeps its part triangle's, as render/displacement.cpp's
+  // children do. Measured on the cut mesh, a groove's wall took the stretch of its slope (1.3 on a
+  // 40 degree wall), and a dent's bump on it was looked up that much farther from its centre
+  // (docs/grooves.md, "Reference and baseline").
+  if (part.mmPerUv.size() == part.triangleCount()) {
+    std::vector<size_t> tbase(nblocks + 1);
+    for (size_t b = 0; b <= nblocks; ++b) tbase[b] = ibase[b] / 3;
+    gather(out.mmPerUv, nt, &Soup::chart, tbase);
+    for (size_t q = 0; q < kept.size(); ++q) out.mmPerUv[q] = part.mmPerUv[kept[q]];
+  } else {
+    out.computeMmPerUv();
+  }
   return out;
 }
 

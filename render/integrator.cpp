@@ -725,12 +725,18 @@ class Tracer {
           if (has_paint_ && s_.paint->hasPeel()) setPeel(sp, sets);
           if (flake_lobe)
             for (GrooveSet& gs : sets) gs.frame_t = sp.dpdu;
-          // Weathering over the groove (rust that grew from a bared scratch) covers its facets
-          // too: with probability `cover` every facet takes the weathered surface.
-          if (has_weathering_) {
+          if (has_defects_) {
             SurfacePoint spw = sp;
             DefectShading dw = applyDefects(spw, wo_w, h);
-            if (dw.cover > 0 && rng.uniform() < dw.cover) {
+            // The other defects' slopes (a dent's bump) tilt every facet, as they tilt every hit of
+            // the explicit geometry (GrooveSet::bump).
+            if (dw.height_grad.x != 0 || dw.height_grad.y != 0) {
+              const Vec3f g = surfaceGradient(sp, dw.height_grad);
+              for (GrooveSet& gs : sets) gs.bump = g;
+            }
+            // Weathering over the groove (rust that grew from a bared scratch) covers its facets
+            // too: with probability `cover` every facet takes the weathered surface.
+            if (has_weathering_ && dw.cover > 0 && rng.uniform() < dw.cover) {
               m = weathered(m, dw, 0.0f);
               for (GrooveSet& gs : sets) gs.one_material = true;
             }
@@ -946,6 +952,10 @@ class Tracer {
     // flake's lobe, the surface's dpdu, the frame its flake normal is given in (as the path
     // tracer's frame at every hit), so that the same flake sparkles as in the explicit geometry.
     std::optional<Vec3f> frame_t;
+    // The other defects' slope at the footprint (a bump-mapped dent's: the world vector that
+    // applyDefects takes off a hit's normal there; zero without), which tilts every facet's normal
+    // (bumped), as it tilts every hit of the explicit geometry, cut or not.
+    Vec3f bump{0.0f, 0.0f, 0.0f};
     // Crossings and ends: area sampling with polygons (Bosch §4.2.4, render/groove_area.h) over
     // the footprint polygon `fp2`, in the frame (T, B, W) centred on F. The fallback above is used
     // only when the pieces would pass groove::area::Surface's caps.
@@ -2187,7 +2197,12 @@ class Tracer {
   static Vec3f flatNormal(const GrooveSet& gs, double t, double b, double extent = 0) {
     const Vec2f uv = gs.uv0 + gs.uv_t * float(t) + gs.uv_b * float(b);
     const Vec2f h = gs.paint->coatHeightGrad(uv, std::max(gs.paint_fp, float(extent)));
-    return normalize(gs.W - gs.peel_u * h.x - gs.peel_v * h.y);
+    return normalize(gs.W - gs.peel_u * h.x - gs.peel_v * h.y - gs.bump);
+  }
+  // A facet's normal n tilted by the other defects' slope (GrooveSet::bump), taken in its plane.
+  static Vec3f bumped(const GrooveSet& gs, Vec3f n) {
+    if (gs.bump.x == 0 && gs.bump.y == 0 && gs.bump.z == 0) return n;
+    return normalize(n - (gs.bump - n * dot(n, gs.bump)));
   }
   // Gives a camera hit's groove sets the peel (GrooveSet::paint), in each one's frame.
   void setPeel(const SurfacePoint& sp, std::vector<GrooveSet>& sets) const {
@@ -2241,8 +2256,8 @@ class Tracer {
       if (gs.paint && flat(k)) return flatNormal(gs, 0.0, std::clamp(0.0, sec.pts[k].x, sec.pts[k + 1].x));
       Vec2d n2 = sec.normal(k);
       const double tilt = sec.tiltOf(k);
-      if (tilt == 0) return gs.B * float(n2.x) + gs.W * float(n2.y);
-      return normalize(gs.T * float(tilt) + gs.B * float(n2.x) + gs.W * float(n2.y));
+      if (tilt == 0) return bumped(gs, gs.B * float(n2.x) + gs.W * float(n2.y));
+      return bumped(gs, normalize(gs.T * float(tilt) + gs.B * float(n2.x) + gs.W * float(n2.y)));
     }
     int facetLayer(size_t k) const { return sec.layer[k]; }
     // Whether facet k and portion p face each other (each has a point in front of the other's line).
@@ -2281,7 +2296,7 @@ class Tracer {
     Vec3f facetNormal(size_t k) const {
       if (gs.paint && flat(k)) return flatNormal(gs, 0.0, 0.0);  // the peel at the footprint's centre
       Vec3d n = gs.surface.pieces()[k].plane.normal();
-      return normalize(gs.T * float(n.x) + gs.B * float(n.y) + gs.W * float(n.z));
+      return bumped(gs, normalize(gs.T * float(n.x) + gs.B * float(n.y) + gs.W * float(n.z)));
     }
     int facetLayer(size_t k) const { return gs.surface.pieces()[k].layer; }
     // Whether piece k and portion p face each other: every piece is a height field with its
@@ -2386,6 +2401,7 @@ class Tracer {
     hs.F = gs.F + gs.T * float(c2.x) + gs.B * float(c2.y);
     hs.one_material = gs.one_material;
     hs.frame_t = gs.frame_t;
+    hs.bump = gs.bump;
     // The peel in its frame: its F at (c2.x, c2.y) of the footprint's (T, B), its B at bdir, and
     // its T = B x W = bdir.y T - bdir.x B.
     hs.paint = gs.paint;

@@ -208,7 +208,7 @@ class Tracer {
       for (auto& d : *s.defects) {
         needs_cavity_ |= d->needsCavity();
         has_weathering_ |= d->cls() == DefectClass::Rust || d->cls() == DefectClass::Patina;
-        has_sampled_masks_ |= d->cls() != DefectClass::Scratch;
+        has_other_defects_ |= d->cls() != DefectClass::Scratch;
       }
     has_paint_ = s.paint != nullptr && s.material.kind == MaterialKind::CarPaint;
     if (has_defects_)
@@ -725,7 +725,8 @@ class Tracer {
           if (has_paint_ && s_.paint->hasPeel()) setPeel(sp, sets);
           if (flake_lobe)
             for (GrooveSet& gs : sets) gs.frame_t = sp.dpdu;
-          if (has_defects_) {
+          // (A scratch has no slope or cover here: its footprints are the grooves themselves.)
+          if (has_other_defects_) {
             SurfacePoint spw = sp;
             DefectShading dw = applyDefects(spw, wo_w, h);
             // The other defects' slopes (a dent's bump) tilt every facet, as they tilt every hit of
@@ -2211,7 +2212,7 @@ class Tracer {
     const Vec3f gu = surfaceGradient(sp, Vec2f(1.0f, 0.0f)), gv = surfaceGradient(sp, Vec2f(0.0f, 1.0f));
     for (GrooveSet& gs : sets) {
       gs.paint = s_.paint.get();
-      gs.uv0 = sp.uv + Vec2f(dot(gs.F - sp.p, pu), dot(gs.F - sp.p, pv));
+      gs.uv0 = sp.uv;  // (F is the hit)
       gs.uv_t = Vec2f(dot(gs.T, pu), dot(gs.T, pv));
       gs.uv_b = Vec2f(dot(gs.B, pu), dot(gs.B, pv));
       gs.peel_u = gu, gs.peel_v = gv;
@@ -3099,8 +3100,9 @@ class Tracer {
   bool has_paint_ = false;
   bool has_scratches_ = false;
   // Whether a defect other than a scratch is present: their masks are sampled on the coverage
-  // grid (render()); a scratch's coverage is analytic.
-  bool has_sampled_masks_ = false;
+  // grid (render()), a scratch's coverage is analytic; and only they have a slope or a cover to
+  // give a groove footprint.
+  bool has_other_defects_ = false;
   bool grooves_ = false;
   // A constant environment (a dome) takes no light samples where groove shading samples many
   // BSDF directions (camera hits and groove footprints): those directions find it with a density
@@ -3293,8 +3295,8 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
           // is a scratch the grid finds nothing and is skipped, except to learn whether the tile
           // sees the part at all (as far as one of its rays meets it); on the wash swirls at 1 spp
           // it was a tenth of the render's time.
-          for (int j = 0; j < K && (tracer.has_sampled_masks_ || !tile_sees_part); ++j)
-            for (int i = 0; i < K && (tracer.has_sampled_masks_ || !tile_sees_part); ++i) {
+          for (int j = 0; j < K && (tracer.has_other_defects_ || !tile_sees_part); ++j)
+            for (int i = 0; i < K && (tracer.has_other_defects_ || !tile_sees_part); ++i) {
               float px = x - 0.5f + (i + 0.5f) / K, py = y - 0.5f + (j + 0.5f) / K;
               DiffRay r = cameraRay(gen, px, py);
               Hit h = intersect(scene.part->scene(), r.o, r.d, 0.0f, kInf);

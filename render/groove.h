@@ -14,6 +14,17 @@
 
 namespace dg::groove {
 
+// The tangent that a facet of normal N takes from the part's chart: the surface's tangent t (its
+// dpdu) carried up onto the facet's plane along the surface normal W. The explicit geometry's cut
+// triangles have their UVs from the part at the point below, so this is their dpdu's direction; the
+// orthogonal projection of t onto the plane is not, wherever the groove runs oblique to t (the
+// groove renderer's facets then turned a resolved flake's tilt about their normal). t itself where
+// the facet stands (nearly) upright.
+inline Vec3f facetTangent(Vec3f t, Vec3f W, Vec3f N) {
+  const float wn = dot(W, N);
+  return std::fabs(wn) > 1e-4f ? t - W * (dot(t, N) / wn) : t;
+}
+
 // A merged cross-section in footprint-centred coordinates: points (b, w), b non-decreasing,
 // starting and ending on w = 0; facet k joins pts[k] and pts[k+1] and shows material layer
 // layer[k] (0 = the part's own top layer). The flat base surface between and around grooves is

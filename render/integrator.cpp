@@ -2191,7 +2191,12 @@ class Tracer {
     const LightGuides* guides = nullptr;
   };
 
-  static Vec3f frameTangent(const GrooveSet& gs) { return gs.frame_t ? *gs.frame_t : gs.T; }
+  // The shading frame of a facet of normal N: about the groove's direction T, or where the camera
+  // hit drew a resolved flake's lobe, about the surface's dpdu (GrooveSet::frame_t) carried onto
+  // the facet as the explicit geometry's cut triangles carry it (groove::facetTangent).
+  static Frame facetFrame(const GrooveSet& gs, Vec3f N) {
+    return Frame::fromNormalTangent(N, gs.frame_t ? groove::facetTangent(*gs.frame_t, gs.W, N) : gs.T);
+  }
   // The normal of the uncut surface at (t, b) of a groove set's frame: W tilted by the clear coat's
   // orange peel there (GrooveSet::paint), as applyDefects tilts a camera hit's. The peel is
   // filtered over the pixel's footprint, or over `extent` (mm) where a portion is larger.
@@ -2541,7 +2546,7 @@ class Tracer {
       if (!(q.weight > 0)) continue;
       const Vec3f N = geo.normal(q);
       const Material& m = facetMaterial(gs, geo.layer(q), top);
-      const Frame fr = Frame::fromNormalTangent(N, frameTangent(gs));
+      const Frame fr = facetFrame(gs, N);
       seen.push_back({&q, N, reflect(-wo_w, N), lobeCone(m), fr, BsdfAt(m, fr.toLocal(wo_w))});
     }
     // The facets with a sharp lobe that face a seen portion.
@@ -2575,7 +2580,7 @@ class Tracer {
         for (const auto& q : seen)
           if (dot(q.N, d0) > 0) covered = covered || q.cone < 0 || dot(d0, q.mirror) >= q.cone;
         if (covered) continue;
-        const Frame fr = Frame::fromNormalTangent(N, frameTangent(gs));
+        const Frame fr = facetFrame(gs, N);
         const Vec3f wl = fr.toLocal(l.wl), v0l = fr.toLocal(v0);
         const BsdfAt bk(m, wl);
         const float pk = bk.pdf(v0l);
@@ -2643,7 +2648,7 @@ class Tracer {
     std::optional<PortionBsdf> local;
     std::optional<PortionBsdf>& e = bsdfs ? (*bsdfs)[pi] : local;
     if (!e) {
-      const Frame f = Frame::fromNormalTangent(geo.normal(p), frameTangent(geo.gs));
+      const Frame f = facetFrame(geo.gs, geo.normal(p));
       e.emplace(m, f, f.toLocal(wo_w));
     }
     const Frame& fr = e->fr;
@@ -2696,7 +2701,7 @@ class Tracer {
     if (!(q.weight > 0)) return L;
     // The facet seen from the solid: its normal turned into the solid, the relative index inverted.
     const Material m = facing(facetMaterial(gs, geo.layer(q), top), false);
-    const Frame fr = Frame::fromNormalTangent(-geo.normal(q), frameTangent(gs));
+    const Frame fr = facetFrame(gs, -geo.normal(q));
     const Vec3f wo = fr.toLocal(-d);
     if (wo.z <= 0) return L;
     BsdfSample bs;
@@ -2756,7 +2761,7 @@ class Tracer {
     for (const auto& p : portions) {
       Vec3f N = geo.normal(p);
       const Material& m = facetMaterial(gs, geo.layer(p), top);
-      Frame fr = Frame::fromNormalTangent(N, frameTangent(gs));
+      Frame fr = facetFrame(gs, N);
       Vec3f wo = fr.toLocal(wo_w);
       if (wo.z <= 0) continue;
       const BsdfAt bsdf(m, wo);
@@ -2902,7 +2907,7 @@ class Tracer {
       const auto& p = *pp;
       if (!(p.weight > 0)) continue;
       const Material& m = facetMaterial(gs, geo.layer(p), top);
-      Frame fr = Frame::fromNormalTangent(geo.normal(p), frameTangent(gs));
+      Frame fr = facetFrame(gs, geo.normal(p));
       const Vec3f wo = fr.toLocal(wo_w), wi = fr.toLocal(d);
       if (wo.z <= 0 || wi.z <= 0) continue;
       const BsdfAt bsdf(m, wo);
@@ -2979,7 +2984,7 @@ class Tracer {
     thread_local LightGuides guides;
     ls.guides = nullptr;
     if (guided_) {
-      const Frame fr = Frame::fromNormalTangent(gs.W, frameTangent(gs));
+      const Frame fr = facetFrame(gs, gs.W);
       const Vec3f wo = fr.toLocal(wo_w);
       if (wo.z > 0 && seesOnlyFlat(sets, wo_w) && buildGuides(origin, gs.W, fr, BsdfAt(top, wo), guides))
         ls.guides = &guides;

@@ -577,6 +577,10 @@ MATERIALS = {
     "glass": "{type: glass, ior: 1.59, roughness: 0.02, thickness_mm: 3}",
     "paint": "{type: car_paint, base_color: [0.5, 0.04, 0.03], flake_amount: 0, flake_density: 0, sparkle: 0, "
              "clear_coat_roughness: 0.05}",
+    # The same paint with resolved metallic flakes (0.03 mm, in cells of 0.06 mm: at the accuracy
+    # scenes' 3-degree view, 33 um per pixel, each one sparkles on its own, on the grooves' walls too).
+    "flakes": "{type: car_paint, base_color: [0.5, 0.04, 0.03], flake_amount: 0.3, flake_density: 0.8, sparkle: 1, "
+              "clear_coat_roughness: 0.05}",
 }
 
 

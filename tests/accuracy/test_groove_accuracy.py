@@ -62,10 +62,11 @@ def compare(ref, test, name):
 
 
 class GrooveAccuracy(unittest.TestCase):
-    def check(self, layout, light, part="plate", max_pct=TARGET_PCT, max_mean=TARGET_MEAN, **scene):
+    def check(self, layout, light, part="plate", max_pct=TARGET_PCT, max_mean=TARGET_MEAN, name=None, **scene):
         """Renders the layout both ways and compares them. max_pct and max_mean: the bounds, the
-        issue's target unless a scene is known to need wider ones (its test says why)."""
-        tag = "%s_%s%s" % (layout, light, "" if part == "plate" else "_" + part)
+        issue's target unless a scene is known to need wider ones, or is held to tighter ones (its
+        test says why). name: the work folders' name, where layout, light and part do not tell it."""
+        tag = name or "%s_%s%s" % (layout, light, "" if part == "plate" else "_" + part)
         ref = render(tag + "_ref", layout, light, "geometry", REF_SPP, noise_seed=1, part=part, **scene)
         grv = render(tag + "_groove", layout, light, "groove", 4, part=part, **scene)
         st = compare(ref, grv, tag)
@@ -110,6 +111,19 @@ class GrooveAccuracy(unittest.TestCase):
         tilts part of it into the bar. Before the groove renderer's flat facets took the peel:
         1.36% of pixels >= 10 (mean 0.63)."""
         self.check("peelside", "bar", material="paint", fov_deg=3)
+
+    def test_peelside_flakes_bar(self):
+        """The same scratch in car paint with resolved metallic flakes (groove_scenes.MATERIALS
+        ["flakes"]): each sparkles where its normal mirrors the bar into the view, on the plate and
+        on the groove's walls, whose flakes lie in the clear coat's top layer. A flake's normal is
+        given in the frame of the surface's normal and dpdu; on a wall the explicit geometry's dpdu
+        comes from the part's UVs at the points below, and the groove renderer carries the plate's
+        dpdu onto the facet the same way (groove::facetTangent). Projected orthogonally instead
+        (before the forty-fourth session), the walls' flakes were turned about their normals
+        wherever the scratch runs oblique to u (here 35 degrees): 0.36% of pixels >= 10, mean
+        0.70, against 0.03% and 0.61 now. Held to 0.15% and 0.65, so that the old frames fail."""
+        self.check("peelside", "bar", material="flakes", fov_deg=3, max_pct=0.15, max_mean=0.65,
+                   name="peelside_flakes_bar")
 
     def test_glass_parallel_backlight(self):
         """A polycarbonate lens (groove_scenes.MATERIALS["glass"], a 3 mm solid) over a back light

@@ -370,6 +370,18 @@ class Tracer {
     return sp.outside ? grad : -grad;
   }
 
+  // A groove footprint's camera hit with the whole pixel's differentials. Groove shading traces it
+  // through the centre of the pixel's stratum with the stratum's (render's loop: the footprint is
+  // the stratum), while what filters by the footprint, the paint's flakes and orange peel and the
+  // other defects, takes the whole pixel's, as the plate's samples and the explicit geometry's do:
+  // with the stratum's, the flakes sparkled resolved in every footprint near a scratch where the
+  // pixel's footprint fades them out (docs/grooves.md, "Sparkling flakes beside a scratch").
+  SurfacePoint wholePixel(const SurfacePoint& sp) const {
+    SurfacePoint q = sp;
+    q.dpdx = sp.dpdx * float(strata_x_), q.dpdy = sp.dpdy * float(strata_y_);
+    q.duvdx = sp.duvdx * float(strata_x_), q.duvdy = sp.duvdy * float(strata_y_);
+    return q;
+  }
   static float footprintOf(const SurfacePoint& sp) {
     return std::max(std::max(std::fabs(sp.duvdx.x), std::fabs(sp.duvdx.y)),
                     std::max(std::fabs(sp.duvdy.x), std::fabs(sp.duvdy.y)));
@@ -713,8 +725,11 @@ class Tracer {
       if (glass_split) m.reflect_share = 0.5f;
       Vec2f peel(0.0f, 0.0f);
       bool flake_lobe = false;  // a resolved flake's lobe, its normal given in the frame (ns, dpdu)
+      // A groove footprint's camera hit came through its stratum's centre with the stratum's
+      // differentials; what filters by the footprint looks at the whole pixel's (wholePixel).
+      const bool stratum = depth == 0 && grooved == 1;
       if (has_paint_ && sp.uv_ok) {
-        PaintSample ps = s_.paint->evaluate(sp.uv, footprintOf(sp), rng.uniform());
+        PaintSample ps = s_.paint->evaluate(sp.uv, footprintOf(stratum ? wholePixel(sp) : sp), rng.uniform());
         peel = ps.coat_height_grad;
         flake_lobe = ps.use_flake_lobe;
         applyPaint(m, ps);
@@ -722,12 +737,12 @@ class Tracer {
       // Camera hits on scratches: the groove renderer integrates the whole footprint.
       if (depth == 0 && grooves_ && sp.uv_ok && grooved != 0) {
         if (grooved == 1 || gatherGrooves(sp, h, wo_w, sets)) {
-          if (has_paint_ && s_.paint->hasPeel()) setPeel(sp, sets);
+          if (has_paint_ && s_.paint->hasPeel()) setPeel(sp, stratum ? footprintOf(wholePixel(sp)) : footprintOf(sp), sets);
           if (flake_lobe)
             for (GrooveSet& gs : sets) gs.frame_t = sp.dpdu;
           // (A scratch has no slope or cover here: its footprints are the grooves themselves.)
           if (has_other_defects_) {
-            SurfacePoint spw = sp;
+            SurfacePoint spw = stratum ? wholePixel(sp) : sp;
             DefectShading dw = applyDefects(spw, wo_w, h);
             // The other defects' slopes (a dent's bump) tilt every facet, as they tilt every hit of
             // the explicit geometry (GrooveSet::bump).
@@ -2211,7 +2226,7 @@ class Tracer {
     return normalize(n - (gs.bump - n * dot(n, gs.bump)));
   }
   // Gives a camera hit's groove sets the peel (GrooveSet::paint), in each one's frame.
-  void setPeel(const SurfacePoint& sp, std::vector<GrooveSet>& sets) const {
+  void setPeel(const SurfacePoint& sp, float fp, std::vector<GrooveSet>& sets) const {
     Vec3f pu, pv;
     dualBasis(sp, pu, pv);
     const Vec3f gu = surfaceGradient(sp, Vec2f(1.0f, 0.0f)), gv = surfaceGradient(sp, Vec2f(0.0f, 1.0f));
@@ -2221,7 +2236,7 @@ class Tracer {
       gs.uv_t = Vec2f(dot(gs.T, pu), dot(gs.T, pv));
       gs.uv_b = Vec2f(dot(gs.B, pu), dot(gs.B, pv));
       gs.peel_u = gu, gs.peel_v = gv;
-      gs.paint_fp = footprintOf(sp);
+      gs.paint_fp = fp;
     }
   }
   // The two ways of integrating over a footprint share the shading below (shadeLevel); they

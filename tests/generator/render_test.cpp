@@ -1053,6 +1053,27 @@ TEST(Render, GrooveFootprintsKeepTheOrangePeel) {
   EXPECT_LT(worst, 0.08);
 }
 
+// Black paint with flakes of `size` mm (density 1, no peel) under a small light 17 degrees off the
+// mirror direction, where flakes tilted about 8 degrees towards +u sparkle; a faint scratch along v
+// through the view. The largest difference of a column from the render without the scratch, as a
+// share of its light (printed).
+double flakesAlongAFaintScratch(double size) {
+  const std::string paint = "{type: car_paint, base_color: [0.02, 0.02, 0.02], flake_amount: 0.5, flake_size_mm: " +
+                            std::to_string(size) +
+                            ", flake_density: 1, sparkle: 1, color_variation: 0, clear_coat_roughness: 0.02, "
+                            "orange_peel_um: 0}";
+  const std::string light = "{type: disk, position: [150, 0, 500], target: [0, 0, 0], radius_mm: 20, "
+                            "radiance: [200, 200, 200]}";
+  const char* down = "[0, -20, 0, 20]";
+  double lo = 0, hi = 0;
+  const double worst =
+      largestLineDifference(plateWithAFaintScratch(paint, light, down, "[0.5, 0.5]"),
+                            plateWithAFaintScratch(paint, light, down, "[0.9, 0.9]"), true, lo, hi);
+  std::printf("[          ] largest column difference %.4f of the column's light; columns' light %.2f to %.2f\n", worst,
+              lo, hi);
+  return worst;
+}
+
 // And the same flakes sparkle in them as on the plate around. Where the camera hit draws a resolved
 // flake's lobe, its normal is given in the surface's frame (its normal and dpdu); the footprints'
 // facets took their frames about the groove's direction, which turned every flake's tilt about the
@@ -1060,21 +1081,7 @@ TEST(Render, GrooveFootprintsKeepTheOrangePeel) {
 // 0.5 mm (cells of 1 mm, two pixels), no peel. Before the forty-third session the middle columns
 // differed from the render without the scratch by 50% of their light; now 3.5%.
 TEST(Render, GrooveFootprintsSparkleWithThePlatesFlakes) {
-  const std::string paint =
-      "{type: car_paint, base_color: [0.02, 0.02, 0.02], flake_amount: 0.5, flake_size_mm: 0.5, flake_density: 1, "
-      "sparkle: 1, color_variation: 0, clear_coat_roughness: 0.02, orange_peel_um: 0}";
-  double lo = 0, hi = 0;
-  // A small light 17 degrees off the mirror direction: flakes tilted about 8 degrees towards +u
-  // sparkle.
-  const std::string light = "{type: disk, position: [150, 0, 500], target: [0, 0, 0], radius_mm: 20, "
-                            "radiance: [200, 200, 200]}";
-  const char* down = "[0, -20, 0, 20]";
-  const double worst =
-      largestLineDifference(plateWithAFaintScratch(paint, light, down, "[0.5, 0.5]"),
-                            plateWithAFaintScratch(paint, light, down, "[0.9, 0.9]"), true, lo, hi);
-  std::printf("[          ] largest column difference %.4f of the column's light; columns' light %.2f to %.2f\n", worst,
-              lo, hi);
-  EXPECT_LT(worst, 0.08);
+  EXPECT_LT(flakesAlongAFaintScratch(0.5), 0.08);
 }
 
 // And the flakes fade with the whole pixel's footprint there, as on the plate. Groove shading
@@ -1085,19 +1092,7 @@ TEST(Render, GrooveFootprintsSparkleWithThePlatesFlakes) {
 // session the middle columns differed from the render without the scratch by 15% of their light;
 // now 3.6%.
 TEST(Render, GrooveFootprintsFadeTheFlakesWithThePixel) {
-  const std::string paint =
-      "{type: car_paint, base_color: [0.02, 0.02, 0.02], flake_amount: 0.5, flake_size_mm: 0.08, flake_density: 1, "
-      "sparkle: 1, color_variation: 0, clear_coat_roughness: 0.02, orange_peel_um: 0}";
-  double lo = 0, hi = 0;
-  const std::string light = "{type: disk, position: [150, 0, 500], target: [0, 0, 0], radius_mm: 20, "
-                            "radiance: [200, 200, 200]}";
-  const char* down = "[0, -20, 0, 20]";
-  const double worst =
-      largestLineDifference(plateWithAFaintScratch(paint, light, down, "[0.5, 0.5]"),
-                            plateWithAFaintScratch(paint, light, down, "[0.9, 0.9]"), true, lo, hi);
-  std::printf("[          ] largest column difference %.4f of the column's light; columns' light %.2f to %.2f\n", worst,
-              lo, hi);
-  EXPECT_LT(worst, 0.08);
+  EXPECT_LT(flakesAlongAFaintScratch(0.08), 0.08);
 }
 
 // And a dent's bump tilts them, as it tilts every hit of the explicit geometry. A bump-mapped dent

@@ -728,8 +728,10 @@ class Tracer {
       // A groove footprint's camera hit came through its stratum's centre with the stratum's
       // differentials; what filters by the footprint looks at the whole pixel's (wholePixel).
       const bool stratum = depth == 0 && grooved == 1;
+      float paint_fp = 0.0f;  // the footprint the paint is filtered over (set where it is evaluated)
       if (has_paint_ && sp.uv_ok) {
-        PaintSample ps = s_.paint->evaluate(sp.uv, footprintOf(stratum ? wholePixel(sp) : sp), rng.uniform());
+        paint_fp = footprintOf(stratum ? wholePixel(sp) : sp);
+        PaintSample ps = s_.paint->evaluate(sp.uv, paint_fp, rng.uniform());
         peel = ps.coat_height_grad;
         flake_lobe = ps.use_flake_lobe;
         applyPaint(m, ps);
@@ -737,7 +739,7 @@ class Tracer {
       // Camera hits on scratches: the groove renderer integrates the whole footprint.
       if (depth == 0 && grooves_ && sp.uv_ok && grooved != 0) {
         if (grooved == 1 || gatherGrooves(sp, h, wo_w, sets)) {
-          if (has_paint_ && s_.paint->hasPeel()) setPeel(sp, stratum ? footprintOf(wholePixel(sp)) : footprintOf(sp), sets);
+          if (has_paint_ && s_.paint->hasPeel()) setPeel(sp, paint_fp, sets);
           if (flake_lobe)
             for (GrooveSet& gs : sets) gs.frame_t = sp.dpdu;
           // (A scratch has no slope or cover here: its footprints are the grooves themselves.)

@@ -1029,6 +1029,20 @@ double largestLineDifference(const ImageF& with, const ImageF& without, bool col
   return worst;
 }
 
+// The faint scratch along `path` through the view against the same out of view
+// (plateWithAFaintScratch): the largest difference of a row (or with `columns`, a column) as a
+// share of its light, printed with the range of the lines' light (lo, hi).
+double footprintsAgainstThePlate(const std::string& material, const std::string& light, const char* path, bool columns,
+                                 double& lo, double& hi, const std::string& defects = "") {
+  const double worst = largestLineDifference(plateWithAFaintScratch(material, light, path, "[0.5, 0.5]", defects),
+                                             plateWithAFaintScratch(material, light, path, "[0.9, 0.9]", defects),
+                                             columns, lo, hi);
+  const char* line = columns ? "column" : "row";
+  std::printf("[          ] largest %s difference %.4f of the %s's light; %ss' light %.2f to %.2f\n", line, worst, line,
+              line, lo, hi);
+  return worst;
+}
+
 }  // namespace
 
 // The clear coat's orange peel stays on the uncut plate inside a scratch's footprints, as on the
@@ -1045,18 +1059,15 @@ TEST(Render, GrooveFootprintsKeepTheOrangePeel) {
   const std::string light =
       "{type: rect, position: [100, 0, 600], target: [100, 0, 0], size_mm: [200, 200], radiance: [20, 20, 20]}";
   const char* across = "[-20, 0, 20, 0]";
-  const double worst =
-      largestLineDifference(plateWithAFaintScratch(paint, light, across, "[0.5, 0.5]"),
-                            plateWithAFaintScratch(paint, light, across, "[0.9, 0.9]"), false, lo, hi);
-  std::printf("[          ] largest row difference %.4f of the row's light; rows' light %.2f to %.2f\n", worst, lo, hi);
+  const double worst = footprintsAgainstThePlate(paint, light, across, false, lo, hi);
   EXPECT_GT(hi / lo, 1.3);  // the peel does wave the edge
   EXPECT_LT(worst, 0.08);
 }
 
 // Black paint with flakes of `size` mm (density 1, no peel) under a small light 17 degrees off the
 // mirror direction, where flakes tilted about 8 degrees towards +u sparkle; a faint scratch along v
-// through the view. The largest difference of a column from the render without the scratch, as a
-// share of its light (printed).
+// through the view. The largest difference of a column from the render with the scratch out of
+// view, as a share of its light (printed).
 double flakesAlongAFaintScratch(double size) {
   const std::string paint = "{type: car_paint, base_color: [0.02, 0.02, 0.02], flake_amount: 0.5, flake_size_mm: " +
                             std::to_string(size) +
@@ -1066,12 +1077,7 @@ double flakesAlongAFaintScratch(double size) {
                             "radiance: [200, 200, 200]}";
   const char* down = "[0, -20, 0, 20]";
   double lo = 0, hi = 0;
-  const double worst =
-      largestLineDifference(plateWithAFaintScratch(paint, light, down, "[0.5, 0.5]"),
-                            plateWithAFaintScratch(paint, light, down, "[0.9, 0.9]"), true, lo, hi);
-  std::printf("[          ] largest column difference %.4f of the column's light; columns' light %.2f to %.2f\n", worst,
-              lo, hi);
-  return worst;
+  return footprintsAgainstThePlate(paint, light, down, true, lo, hi);
 }
 
 // And the same flakes sparkle in them as on the plate around. Where the camera hit draws a resolved
@@ -1107,11 +1113,7 @@ TEST(Render, GrooveFootprintsKeepADentsBump) {
                            "displacement: bump}\n";
   const char* across = "[-20, 0, 20, 0]";
   double lo = 0, hi = 0;
-  const double worst =
-      largestLineDifference(plateWithAFaintScratch(steel, light, across, "[0.5, 0.5]", dent),
-                            plateWithAFaintScratch(steel, light, across, "[0.9, 0.9]", dent), false, lo, hi);
-  std::printf("[          ] largest row difference %.4f of the row's light; rows' light %.2f to %.2f\n", worst, lo, hi);
-  EXPECT_LT(worst, 0.08);
+  EXPECT_LT(footprintsAgainstThePlate(steel, light, across, false, lo, hi, dent), 0.08);
 }
 
 // An emitter hides what lies behind its front from every estimator alike. A path's ray stops at

@@ -12,6 +12,7 @@
 #include "defects/scratch.h"
 #include "render/groove.h"
 #include "render/parts.h"
+#include "render/scene.h"
 #include "render/scratch_geometry.h"
 
 using namespace dg;
@@ -691,7 +692,7 @@ TEST(ScratchGeometry, CutTrianglesKeepThePartsChartScale) {
 // triangles do: the groove renderer frames a resolved paint flake's normal about the surface's dpdu
 // carried up onto each facet along the normal (groove::facetTangent), and a cut triangle's dpdu,
 // from the part's UVs at the points below, points the same way. Along a scratch at 35 degrees to u
-// with 31-degree walls, the wall triangles agree to 1.4e-4 rad on average (by area); the orthogonal
+// with 31-degree walls, the wall triangles agree to 1.7e-4 rad on average (by area); the orthogonal
 // projection of dpdu onto the wall, which the groove renderer took before the forty-fourth session
 // (and which turned every flake on the walls about the normal), is off by 0.144 rad (8 degrees).
 TEST(ScratchGeometry, WallsTakeTheChartsTangentAsTheGrooveRendererCarriesIt) {
@@ -701,43 +702,31 @@ TEST(ScratchGeometry, WallsTakeTheChartsTangentAsTheGrooveRendererCarriesIt) {
   Profile p = Profile::fromPolyline({{-0.05, 0.0}, {0.0, -0.03}, {0.05, 0.0}});
   Scratch s = Scratch::fromProfile(ScratchPath::polyline({Vec2d(10.0, 10.0) - d * 5.0, Vec2d(10.0, 10.0) + d * 5.0}), p);
   std::vector<const Scratch*> list{&s};
-  TriangleMesh m = scratchedMesh(plate, list, {});
-  // Each triangle's dpdu as the renderer's part geometry takes it (render/scene.cpp), and its normal.
-  auto frame = [&](size_t t, Vec3d& pu, Vec3d& n) {
-    const uint32_t* id = &m.indices[3 * t];
-    const Vec3d p0(m.positions[id[0]]), e1 = Vec3d(m.positions[id[1]]) - p0, e2 = Vec3d(m.positions[id[2]]) - p0;
-    const Vec2f u0 = m.uvs[id[0]], u1 = m.uvs[id[1]], u2 = m.uvs[id[2]];
-    const double du1 = u1.x - u0.x, dv1 = u1.y - u0.y, du2 = u2.x - u0.x, dv2 = u2.y - u0.y;
-    const double det = du1 * dv2 - du2 * dv1;
-    n = cross(e1, e2);
-    if (!(std::fabs(det) > 1e-12) || !(length(n) > 1e-12)) return false;
-    pu = (e1 * dv2 - e2 * dv1) / det;
-    n = n / length(n);
-    return true;
-  };
+  // Each triangle's dpdu and normal as the renderer takes them (PartGeometry::frame).
+  const PartGeometry part(scratchedMesh(plate, list, {}));
+  const TriangleMesh& m = part.mesh();
   const Vec3f W(0.0f, 0.0f, 1.0f);
-  Vec3d t(0.0, 0.0, 0.0), pu, n;
-  for (size_t i = 0; i < m.triangleCount() && length(t) == 0; ++i)
-    if (frame(i, pu, n) && n.z > 0.9999) t = pu;  // an uncut triangle: the plate's dpdu
-  ASSERT_GT(length(t), 0.0);
-  const Vec3f tf(t / length(t));
-  auto angle = [](Vec3f x, Vec3d y) {
-    return std::acos(std::clamp(double(dot(normalize(x), Vec3f(y / length(y)))), -1.0, 1.0));
+  Vec3f t(0.0f, 0.0f, 0.0f);
+  for (unsigned i = 0; i < m.triangleCount() && length(t) == 0; ++i)
+    if (part.frame(i).uv_ok && part.frame(i).ng.z > 0.9999f) t = part.frame(i).dpdu;  // the plate's
+  ASSERT_GT(length(t), 0.0f);
+  auto angle = [](Vec3f x, Vec3f y) {
+    return std::acos(std::clamp(double(dot(normalize(x), normalize(y))), -1.0, 1.0));
   };
   // Weighted by area: the triangles are a few micrometres across at 10 mm from the origin, so
   // their float positions and UVs leave slivers off by a few milliradians.
   size_t walls = 0;
   double area = 0, mean = 0, mean_orthogonal = 0;
-  for (size_t i = 0; i < m.triangleCount(); ++i) {
-    if (!frame(i, pu, n) || n.z > 0.95) continue;  // walls only (tilted more than 18 degrees)
-    const uint32_t* id = &m.indices[3 * i];
+  for (unsigned i = 0; i < m.triangleCount(); ++i) {
+    const PartGeometry::TriFrame& fr = part.frame(i);
+    if (!fr.uv_ok || fr.ng.z > 0.95f) continue;  // walls only (tilted more than 18 degrees)
+    const uint32_t* id = &m.indices[3 * size_t(i)];
     const double ai = 0.5 * length(cross(Vec3d(m.positions[id[1]]) - Vec3d(m.positions[id[0]]),
                                          Vec3d(m.positions[id[2]]) - Vec3d(m.positions[id[0]])));
-    const Vec3f nf(n);
     ++walls;
     area += ai;
-    mean += ai * angle(groove::facetTangent(tf, W, nf), pu);
-    mean_orthogonal += ai * angle(tf - nf * dot(tf, nf), pu);
+    mean += ai * angle(groove::facetTangent(t, W, fr.ng), fr.dpdu);
+    mean_orthogonal += ai * angle(t - fr.ng * dot(t, fr.ng), fr.dpdu);
   }
   mean /= area, mean_orthogonal /= area;
   std::printf("[          ] %zu wall triangles: mean angle to their dpdu %.2e rad (orthogonal projection %.3f)\n",

@@ -1443,8 +1443,12 @@ class Tracer {
   }
 
   // A view is close, for the cap of pieces (buildArea), where the reach toward the lights is at
-  // least this many of the pixel's radii: the region spans about 45 pixels or more.
-  static constexpr double kCloseReach = 32.0;
+  // least this many of the pixel's radii: the region's square is 16 pixels wide or more, and a
+  // shadow lost beyond half the reach spans four pixels or more. Until the forty-fifth session it
+  // was 32; the corner fuzzer's c41_7 (the accuracy test's `tiltpin`, 23 radii) kept 0.56% of
+  // pixels >= 10 against geometry at 2,048 spp at the ordinary cap, 0% at the close views' cap.
+  // At 12 nothing more changed that showed (docs/grooves.md, "Close views").
+  static constexpr double kCloseReach = 16.0;
 
   // A corner of ng's path at either end of its closest point's segment (ScratchPath::cornerAround:
   // the footprint's own leg is one of its two), within `reach` (uv) of the footprint's centre: the
@@ -2062,6 +2066,8 @@ class Tracer {
     // passes fuzzer's loop p1_11 seen at 1 degree kept 7.1% of pixels >= 10 at the ordinary cap
     // and 3.5% at this one; eight deep grooves through one spot seen at 1 degree (most footprints
     // past the ordinary cap at every reach) 22.5% and 1.0%. Both took 2 to 2.4 times as long.
+    // Where the smaller region leaves out a groove that shadows the footprint, a glint runs on
+    // into the shadow (c41_7 at 22 micrometres per pixel: 0.56% and 0%, 1.4 times the time).
     // Farther away the larger cap cost up to twice the time and changed nothing that showed (100
     // fuzzer layouts at 48 x 48 and 3 to 10 degrees: mean dE 0.203 -> 0.208 over them), so it is
     // kept for close views (docs/grooves.md, "Cost bound and fallback"). The nearest grooves'

@@ -485,6 +485,31 @@ LAYOUTS["hook"] = """
     hardness_hv: 30
 """
 
+# A polyline cut by a tool tilted 21 degrees that turns back by 162 degrees 0.2 mm after its first
+# vertex, crossed by two straight scratches through a spot 0.5 mm across (the corner fuzzer's
+# c41_7 at its seed), for a view at 1 degree, 48 pixels: 22 micrometres per pixel. The deep straight
+# grooves (0.033 mm) reach 0.25 mm toward the low bar, 23 pixel radii: near the turn the polygons'
+# region at the full reach holds more pieces than the ordinary cap (docs/grooves.md, "Close views").
+LAYOUTS["tiltpin"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5075, 0.4916]
+    path_mm: [-3.7423, 1.2709, 0.0406, -0.0287, 0.1999, 0.0855, -0.5551, -0.9110, -0.0896, -1.5433, 0.7351, 2.3708]
+    force_kg: 0.98
+    hardness_hv: 60
+    tool_tilt_deg: 21
+    tool_tilt_azimuth_deg: 356
+  - type: scratch
+    count: 2
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 6.9
+    force_kg: 1.21
+    hardness_hv: 20
+    region: [0.4882, 0.4882, 0.5118, 0.5118]
+"""
+
 LIGHTS = {
     # Bright field through a glass part: a 12 x 12 mm panel 50 mm below the plate, facing up, which
     # the flat glass shows whole; a groove's facets refract the view off it.

@@ -362,7 +362,10 @@ class Tracer {
   static Vec3f surfaceGradient(const SurfacePoint& sp, Vec2f h) {
     Vec3f pu, pv;
     dualBasis(sp, pu, pv);
-    Vec3f grad = pu * h.x + pv * h.y;
+    return inShadingPlane(sp, pu * h.x + pv * h.y);
+  }
+  // A gradient of the dual basis (dualBasis) in the shading plane, turned over for a ray from behind.
+  static Vec3f inShadingPlane(const SurfacePoint& sp, Vec3f grad) {
     // The height is measured along the outward normal. A ray from behind (the back of a sheet, the
     // inside of a glass part) sees the same surface turned over: with the normal flipped, the
     // height is negated too (digest §8.3), so a dent seen from behind reads as a bump.
@@ -2237,7 +2240,8 @@ class Tracer {
   void setPeel(const SurfacePoint& sp, float fp, std::vector<GrooveSet>& sets) const {
     Vec3f pu, pv;
     dualBasis(sp, pu, pv);
-    const Vec3f gu = surfaceGradient(sp, Vec2f(1.0f, 0.0f)), gv = surfaceGradient(sp, Vec2f(0.0f, 1.0f));
+    // surfaceGradient of unit steps in u and v, without computing the dual basis twice more.
+    const Vec3f gu = inShadingPlane(sp, pu), gv = inShadingPlane(sp, pv);
     for (GrooveSet& gs : sets) {
       gs.paint = s_.paint.get();
       gs.uv0 = sp.uv;  // (F is the hit)

@@ -1068,6 +1068,7 @@ TEST(Render, GrooveFootprintsKeepTheOrangePeel) {
 // mirror direction, where flakes tilted about 8 degrees towards +u sparkle; a faint scratch along v
 // through the view. The largest difference of a column from the render with the scratch out of
 // view, as a share of its light (printed).
+namespace {
 double flakesAlongAFaintScratch(double size) {
   const std::string paint = "{type: car_paint, base_color: [0.02, 0.02, 0.02], flake_amount: 0.5, flake_size_mm: " +
                             std::to_string(size) +
@@ -1079,6 +1080,7 @@ double flakesAlongAFaintScratch(double size) {
   double lo = 0, hi = 0;
   return footprintsAgainstThePlate(paint, light, down, true, lo, hi);
 }
+}  // namespace
 
 // And the same flakes sparkle in them as on the plate around. Where the camera hit draws a resolved
 // flake's lobe, its normal is given in the surface's frame (its normal and dpdu); the footprints'

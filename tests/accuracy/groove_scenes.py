@@ -510,6 +510,23 @@ LAYOUTS["tiltpin"] = """
     region: [0.4882, 0.4882, 0.5118, 0.5118]
 """
 
+# A cubic that loops tightly across its own way (about 0.5 mm across, two of its flattened vertices
+# turning by 10 degrees or more: corners), for a view at 1 degree, 48 pixels (the passes fuzzer's
+# p45_3 at its seed). Near the loop the later pass lies outside the earlier one's window of bends,
+# and until the forty-fifth session both stood their corners' straight legs there: a leg ran
+# across the loop (docs/grooves.md, "Bends").
+LAYOUTS["tightloop"] = """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: bezier
+    center: [0.4957, 0.5008]
+    path_mm: [-2.8962, -2.8815, 4.3620, 3.3015, -5.1229, -1.3258, 4.2175, 0.5890]
+    force_kg: 2.92
+    hardness_hv: 60
+    pileup: 0.96
+"""
+
 LIGHTS = {
     # Bright field through a glass part: a 12 x 12 mm panel 50 mm below the plate, facing up, which
     # the flat glass shows whole; a groove's facets refract the view off it.

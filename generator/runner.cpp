@@ -594,7 +594,8 @@ GenerateResult runGenerate(const GenerateOptions& o) {
         t["groove_footprints"] = {{"sections", f.stats.groove_sections},
                                   {"polygons", f.stats.groove_polygons},
                                   {"trimmed", f.stats.groove_trimmed},
-                                  {"fallbacks", f.stats.groove_fallbacks}};
+                                  {"fallbacks", f.stats.groove_fallbacks},
+                                  {"shared", f.stats.groove_shared}};
       useless.check(i, s, f);
       past_caps.check(i, f.stats);
       writeSampleFiles(out, ds.config, s, f, t);

@@ -80,6 +80,9 @@ struct RenderSettings {
   // Crossings and ends by area sampling with polygons (Bosch §4.2.4); false: the direction-share
   // and end-share blend that is otherwise only the fallback past the polygons' caps.
   bool groove_polygons = true;
+  // Close views: a polygon surface built for one footprint serves the strata beside it
+  // (Tracer::SharedArea in integrator.cpp); false builds one for each.
+  bool groove_share_polygons = true;
   // With groove shading on, BSDF directions at every other camera hit, each continued as its own
   // path: glossy surfaces lit by wide lights converge alike on and off the grooves. At most
   // camera_hit_bsdf_samples (and 64) per camera sample, and no more than camera_hit_bsdf_per_pixel
@@ -139,6 +142,9 @@ struct RenderStats {
   // over the nearest grooves only (`trimmed`) or, past those too, by the blend (`fallbacks`).
   uint64_t groove_sections = 0, groove_polygons = 0, groove_trimmed = 0, groove_fallbacks = 0;
   uint64_t grooveFootprints() const { return groove_sections + groove_polygons + groove_trimmed + groove_fallbacks; }
+  // Of the polygon footprints, those that took the surface built for a stratum beside them (a
+  // close view, Tracer::SharedArea in integrator.cpp).
+  uint64_t groove_shared = 0;
   // Whether a primary ray of the mask pass (or, without one, through a pixel centre) meets the
   // part: false when the camera does not see the part at all (a camera looking past it).
   bool part_in_view = false;

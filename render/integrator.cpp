@@ -1687,11 +1687,11 @@ class Tracer {
   // pixel gets does not depend on how the tiles were spread over the threads. Only surfaces built
   // at the full reach with every groove in it are shared. Measured (docs/grooves.md, "A pixel's
   // strata share one surface"): the accuracy scenes seen close take 1.2-2.8 times less time, the
-  // fuzzer's close views 1.3-3.7 times, for the same figures within a pixel or two. Sharing over more (a growth of 1.5
-  // radii, or regions grown by a quarter of the reach, whose tangents, bends and fading tips'
-  // scales were then taken up to a quarter of the reach away) was faster and worse: the passes
-  // fuzzer's p46_7 0.13% of pixels >= 10 unshared, 0.13% at 1 radius, 0.65% at a quarter of the
-  // reach; the accuracy test's `tips` 0.01%, 0.08% and 0.40%.
+  // fuzzer's close views 1.3-3.7 times, for the same figures within a pixel or two. Sharing over
+  // more (a growth of 1.5 radii, or regions grown by a quarter of the reach, whose tangents, bends
+  // and fading tips' scales were then taken up to a quarter of the reach away) was faster and
+  // worse: the passes fuzzer's p46_7 0.13% of pixels >= 10 unshared, 0.13% at 1 radius, 0.65% at
+  // a quarter of the reach; the accuracy test's `tips` 0.01%, 0.08% and 0.40%.
   static constexpr double kShareGrowth = 1.0;
   struct SharedArea {
     bool valid = false;

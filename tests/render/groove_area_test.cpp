@@ -135,14 +135,15 @@ double profileAt(double b, const std::vector<Vec2d>& P = kProfile) {
   return 0.0;
 }
 
-// The largest difference over an 81 x 81 grid of [-0.15, 0.15]^2 between s's height and kProfile at
+// The largest difference over an 81 x 81 grid of [-half, half]^2 between s's height and kProfile at
 // the signed distance to the closest point of `path` (Scratch::height's rule); infinite, with a
 // failure, where a grid point is on no piece.
-double offClosestProfile(const Surface& s, const ScratchPath& path, const std::vector<Vec2d>& profile = kProfile) {
+double offClosestProfile(const Surface& s, const ScratchPath& path, const std::vector<Vec2d>& profile = kProfile,
+                         double half = 0.15) {
   double worst = 0;
   for (int j = 0; j <= 80; ++j)
     for (int i = 0; i <= 80; ++i) {
-      const Vec2d p(-0.15 + 0.3 * (i + 0.31) / 81, -0.15 + 0.3 * (j + 0.57) / 81);
+      const Vec2d p(-half + 2 * half * (i + 0.31) / 81, -half + 2 * half * (j + 0.57) / 81);
       const double want = profileAt(double(path.closest(Vec2f(float(p.x), float(p.y))).offset), profile);
       const int k = pieceAt(s, p);
       if (k < 0) {
@@ -1122,6 +1123,92 @@ TEST(GrooveArea, ThreePassesOfAPathAreOnePartition) {
               parts.size(), worst, worst_two);
   EXPECT_LT(worst, 1e-6);
   EXPECT_GT(worst_two, 1e-3);
+}
+
+// A path's sharp corner (163 degrees, its round outer side a fan of eleven sectors) with a later
+// pass of the path running straight across both its legs 0.12 mm from the vertex, their pile-ups
+// overlapping: the corner fuzzer's c47_4, its legs exactly as the integrator gave them to
+// chainParts in one footprint seen at 2 degrees. chainParts with the pass and the corner's legs as
+// two runs gives each point the cross-section of the nearer pass, as the explicit geometry does.
+// The out-leg's cell at the vertex keeps every sector's edge (12 lines through the vertex, left as
+// a cluster of points a rounding apart), more than Groove::kMaxDom allowed until 2026-12-01 (10):
+// chainParts refused the chain, the two passes were composited, and the pass's pile-up stood up
+// to 0.035 mm over the corner's groove. The light it mirrored made 0.26% of c47_4's pixels >= 10.
+TEST(GrooveArea, ACornerAndAPassAcrossItsLegsAreOnePartition) {
+  // The profile (c47_4's 2.8 kg on HV 20) at the pass's scale, and scaled to the corner's legs.
+  const std::vector<Vec2d> at_pass = {
+      {-0.14260803176115402, 0},        {-0.11830170256410152, 0.038192852120949035},
+      {-0.072785233429348256, 0},       {-0.0014012148041347722, -0.059898303163199183},
+      {-0.00074557082391304638, -0.060276839388777502}, {0, -0.060408303640213733},
+      {0.00074557082391304638, -0.060276839388777502},  {0.0014012148041347722, -0.059898303163199183},
+      {0.072785233429348242, 0},        {0.1183017025641015, 0.038192852120949035},
+      {0.142608031761154, 0}};
+  auto scaled = [&](double k) {
+    std::vector<Vec2d> p = at_pass;
+    for (Vec2d& v : p) v = v * k;
+    return p;
+  };
+  const std::vector<Vec2d> at_c1 = scaled(0.14095594431494085 / 0.142608031761154),
+                           at_c2 = scaled(0.13455793847468545 / 0.142608031761154);
+  const std::vector<int> layers(at_pass.size() - 1, 0);
+  auto leg = [&](Vec2d t, double t0, double b0, double rho, double t_lo, double t_hi, const std::vector<Vec2d>& pts) {
+    Groove g = along(t, b0, 7);
+    g.pts = &pts;
+    g.layer = &layers;
+    g.t0 = t0;
+    g.rho = rho;
+    g.t_lo = t_lo;
+    g.t_hi = t_hi;
+    return g;
+  };
+  // (The directions are the integrator's, rounded to float.)
+  const Groove pass = leg({1, 0}, -3.1990930438041687e-07, 0.034524865448474884, 0.056271468877812182,
+                          -1.4241402716014271, 2.5757710999166967, at_pass);
+  const Groove a = leg({0.53086161613464355, -0.8474586009979248}, 0.77451120693748265, 0.39384727137431763,
+                       -0.044482533689705013, -3.9999564560129914, 0, at_c1);
+  const Groove b = leg({0.76996105909347534, -0.63809090852737427}, 0.85897538654032424, 0.13093726802806072,
+                       -0.048450841595070619, 0, 0.93682810589776677, at_c1);
+  const Groove c = leg({-0.92461252212524414, 0.38090911507606506}, 0.035497728309978473, -0.14814022193459783,
+                       -0.047988577327606745, 0, 1.0057542145076992, at_c2);
+  const Poly region = rect(-0.61592717498913407, -0.62054469652846456, 0.61592717498913407, 0.62054469652846456);
+  std::vector<Groove> parts, corner_parts;
+  ASSERT_TRUE(chainParts({pass, a, b, c}, 15 * M_PI / 180, region, parts, {1}));
+  int most = 0;
+  for (const Groove& q : parts) most = std::max(most, q.n_dom);
+  Surface s;
+  ASSERT_TRUE(s.build(region, {ofParts(parts, 7)}));
+  // The corner's legs alone, and composited with the pass.
+  ASSERT_TRUE(chainParts({a, b, c}, 15 * M_PI / 180, region, corner_parts));
+  const Groove corner = ofParts(corner_parts, 7);
+  Surface two;
+  ASSERT_TRUE(two.build(region, {pass, corner}));
+  // The nearer pass's height: the straight one's where its |b| is below the distance to the
+  // corner's legs (the polyline c1, c2 and on), else the corner's.
+  auto toSegment = [](Vec2d p, Vec2d q0, Vec2d q1) {
+    const Vec2d d = q1 - q0;
+    const double f = std::clamp(((p.x - q0.x) * d.x + (p.y - q0.y) * d.y) / (d.x * d.x + d.y * d.y), 0.0, 1.0);
+    return std::hypot(p.x - q0.x - d.x * f, p.y - q0.y - d.y * f);
+  };
+  const Vec2d c1(-0.744927, 0.447288), c2(-0.023606, -0.150494), far_a = c1 - Vec2d(0.530862, -0.847459) * 4,
+              far_c = c2 + Vec2d(-0.924613, 0.380909) * 1.005754;
+  double worst = 0, worst_two = 0;
+  for (int j = 0; j <= 120; ++j)
+    for (int i = 0; i <= 120; ++i) {
+      const Vec2d p(-0.6 + 1.2 * (i + 0.31) / 121, -0.6 + 1.2 * (j + 0.57) / 121);
+      const double d_pass = std::fabs(p.y + 0.034525);
+      const double d_corner = std::min({toSegment(p, far_a, c1), toSegment(p, c1, c2), toSegment(p, c2, far_c)});
+      const double want = d_pass <= d_corner ? grooveHeight(pass, p) : grooveHeight(corner, p);
+      const int k = pieceAt(s, p), k2 = pieceAt(two, p);
+      ASSERT_GE(k, 0);
+      ASSERT_GE(k2, 0);
+      worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
+      worst_two = std::max(worst_two, std::fabs(two.pieces()[size_t(k2)].plane.at(p) - want));
+    }
+  std::printf("[          ] %zu parts, at most %d half-planes each: height off by at most %.2e mm (composited: %.2e)\n",
+              parts.size(), most, worst, worst_two);
+  EXPECT_GT(most, 10);  // (the case that needs the wider cap)
+  EXPECT_LT(worst, 1e-9);
+  EXPECT_GT(worst_two, 0.03);
 }
 
 // The same where each pass is in pieces along its line (the integrator's scaleSegments, within a

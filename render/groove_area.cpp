@@ -853,6 +853,39 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
       if (b < best) best = b, c.owner = int(ci);
     }
   }
+  // A cell with more lines than a part's domain holds: those that its other lines imply are
+  // dropped, one at a time, where the others' intersection over `bound` grown by its size lies
+  // within kThinCut outside the line. The clipping can leave a vertex as a cluster of points a
+  // rounding apart, and every line through it then counts as bounding the cell (prune); at a
+  // corner's vertex, where all the edges of its fan's sectors meet, a leg's cell kept them all,
+  // only two of them bounding it. (Those lines are kept where the cap is not reached: so the
+  // partitions that fit it are as they were.)
+  Vec2d blo = bound.v[0], bhi = bound.v[0];
+  bound.extend(blo, bhi);
+  const Vec2d grow = bhi - blo;
+  const Poly box = [&] {
+    Poly b;
+    b.push({blo.x - grow.x, blo.y - grow.y});
+    b.push({bhi.x + grow.x, blo.y - grow.y});
+    b.push({bhi.x + grow.x, bhi.y + grow.y});
+    b.push({blo.x - grow.x, bhi.y + grow.y});
+    return b;
+  }();
+  for (Cell& c : cells) {
+    for (int i = c.nh - 1; i >= 0 && c.nh > Groove::kMaxDom; --i) {
+      Poly rest = box;
+      for (int k = 0; k < c.nh && !rest.empty(); ++k)
+        if (k != i) rest = clip(rest, c.h[k].a, c.h[k].c);
+      const HalfPlane& h = c.h[i];
+      const double tol = kThinCut * std::hypot(h.a.x, h.a.y);
+      bool implied = !rest.empty();
+      for (int j = 0; j < rest.n && implied; ++j)
+        implied = h.a.x * rest.v[size_t(j)].x + h.a.y * rest.v[size_t(j)].y + h.c <= tol;
+      if (!implied) continue;
+      std::copy(c.h + i + 1, c.h + c.nh, c.h + i);
+      --c.nh;
+    }
+  }
   for (const Cell& c : cells) {
     // (Every point has a nearest candidate: the path's closest point is on a leg's strip or, on
     // a corner's outer side, in its fan.)

@@ -104,13 +104,12 @@ struct Groove {
   // A cell keeps every line that passes within rounding of two of its vertices, and the clipping
   // can leave a vertex as a cluster of points a rounding apart. At a corner's vertex, where the
   // edges of all its fan's sectors meet, a leg's cell that reaches the vertex then keeps all of
-  // them, though only two bound it along an edge (the others touch it at the vertex and cut
-  // nothing off it). Dropping lines by a coarser test would also drop some that bound a cell
-  // along a short edge, opening its domain over its neighbours' (tried on 2026-12-01, with edges
-  // under kThinCut: 0.35% of `tightloop`'s pixels >= 10 against 0%). So the cap is wide: 16 (10
-  // until 2026-12-01, when a leg's cell at c47_4's corner of 163 degrees, its fan of eleven
-  // sectors, kept 12 lines, and chainParts refused the chain that joined it with a straight pass
-  // across its legs; GrooveArea.ACornerAndAPassAcrossItsLegsAreOnePartition).
+  // them, though only two bound it along an edge. Up to kMaxDom they are kept (they cut nothing
+  // off the cell); past it chainParts drops those that the cell's other lines imply. (10 until
+  // 2026-12-01, with nothing dropped: a leg's cell at c47_4's corner of 163 degrees, with a
+  // straight pass across its legs, kept 12 lines, and c45_6's knot of four corners 17 to 21;
+  // chainParts refused both chains. GrooveArea.ACornerAndAPassAcrossItsLegsAreOnePartition,
+  // GrooveArea.AChainsCellsDropTheLinesTheirOthersImply.)
   static constexpr int kMaxDom = 16;
   const std::vector<Groove>* parts = nullptr;
   HalfPlane dom[kMaxDom];
@@ -175,9 +174,10 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
 // cornerParts: its fan is the half disc beyond the vertex; where two candidates lie on one line
 // (1e-6 in direction and 1e-6 mm in place), the earlier keeps what they share. Each cell of the partition is a part,
 // its domain the half-planes that bound it within `bound` (the largest region the caller will
-// build), so the parts tile `bound`. Appends the parts to `out_parts` (cleared first). False
-// (nothing appended) where the partition needs more than kMaxChainCells cells or a cell more than
-// Groove::kMaxDom half-planes.
+// build), so the parts tile `bound`; a cell with more than Groove::kMaxDom of them keeps only
+// those that its others do not imply (within kThinCut). Appends the parts to `out_parts`
+// (cleared first). False (nothing appended) where the partition needs more than kMaxChainCells
+// cells or a cell more than Groove::kMaxDom half-planes that its others do not imply.
 constexpr size_t kMaxChainCells = 400;
 // No cell of the partition is narrower than kThinCut (mm) across one of its cuts: a line that
 // passes within it of a cell's far side leaves the cell whole. A tenth of a nanometre, far below

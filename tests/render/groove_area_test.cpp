@@ -1171,17 +1171,6 @@ TEST(GrooveArea, ACornerAndAPassAcrossItsLegsAreOnePartition) {
   const Groove c = leg({-0.92461252212524414, 0.38090911507606506}, 0.035497728309978473, -0.14814022193459783,
                        -0.047988577327606745, 0, 1.0057542145076992, at_c2);
   const Poly region = rect(-0.61592717498913407, -0.62054469652846456, 0.61592717498913407, 0.62054469652846456);
-  std::vector<Groove> parts, corner_parts;
-  ASSERT_TRUE(chainParts({pass, a, b, c}, 15 * M_PI / 180, region, parts, {1}));
-  int most = 0;
-  for (const Groove& q : parts) most = std::max(most, q.n_dom);
-  Surface s;
-  ASSERT_TRUE(s.build(region, {ofParts(parts, 7)}));
-  // The corner's legs alone, and composited with the pass.
-  ASSERT_TRUE(chainParts({a, b, c}, 15 * M_PI / 180, region, corner_parts));
-  const Groove corner = ofParts(corner_parts, 7);
-  Surface two;
-  ASSERT_TRUE(two.build(region, {pass, corner}));
   // The nearer pass's height: the straight one's where its |b| is below the distance to the
   // corner's legs (the polyline c1, c2 and on), else the corner's.
   auto toSegment = [](Vec2d p, Vec2d q0, Vec2d q1) {
@@ -1191,6 +1180,18 @@ TEST(GrooveArea, ACornerAndAPassAcrossItsLegsAreOnePartition) {
   };
   const Vec2d c1(-0.744927, 0.447288), c2(-0.023606, -0.150494), far_a = c1 - Vec2d(0.530862, -0.847459) * 4,
               far_c = c2 + Vec2d(-0.924613, 0.380909) * 1.005754;
+  const double sector = 15.0;  // (the integrator's sectors: at most 15 degrees, eleven here)
+  std::vector<Groove> parts, corner_parts;
+  ASSERT_TRUE(chainParts({pass, a, b, c}, sector * M_PI / 180, region, parts, {1}));
+  int most = 0;
+  for (const Groove& q : parts) most = std::max(most, q.n_dom);
+  Surface s;
+  ASSERT_TRUE(s.build(region, {ofParts(parts, 7)}));
+  // The corner's legs alone, and composited with the pass.
+  ASSERT_TRUE(chainParts({a, b, c}, sector * M_PI / 180, region, corner_parts));
+  const Groove corner = ofParts(corner_parts, 7);
+  Surface two;
+  ASSERT_TRUE(two.build(region, {pass, corner}));
   double worst = 0, worst_two = 0;
   for (int j = 0; j <= 120; ++j)
     for (int i = 0; i <= 120; ++i) {
@@ -1204,11 +1205,90 @@ TEST(GrooveArea, ACornerAndAPassAcrossItsLegsAreOnePartition) {
       worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
       worst_two = std::max(worst_two, std::fabs(two.pieces()[size_t(k2)].plane.at(p) - want));
     }
-  std::printf("[          ] %zu parts, at most %d half-planes each: height off by at most %.2e mm (composited: %.2e)\n",
-              parts.size(), most, worst, worst_two);
-  EXPECT_GT(most, 10);  // (the case that needs the wider cap)
+  std::printf("[          ] sectors of %.0f degrees: %zu parts, at most %d half-planes each: height off by at most "
+              "%.2e mm (composited: %.2e)\n",
+              sector, parts.size(), most, worst, worst_two);
+  EXPECT_GT(most, 10);  // (the case that needed the wider cap)
   EXPECT_LT(worst, 1e-9);
   EXPECT_GT(worst_two, 0.03);
+}
+
+// A knot of four corners of one path (the corner fuzzer's c45_6 seen at 1 degree, a tilted
+// tool's profile; its legs as the integrator gave them to chainParts, all with the first leg's
+// profile), its fans cut into sectors of 7.6 degrees: a leg's cell at a vertex keeps the edges
+// of all the sectors there (17 to 21 lines, the vertex left as a cluster of points a rounding
+// apart), more than a domain holds. chainParts drops the lines that the others imply, and the
+// partition stays whole: until 2026-12-01 it refused the chain (499 times over c45_6's image).
+TEST(GrooveArea, AChainsCellsDropTheLinesTheirOthersImply) {
+  const std::vector<Vec2d> profile = {
+      {-0.066183887331041275, 0}, {-0.052498036115120765, 0.064641765799265977}, {-0.021420587887665713, 0},
+      {-0.0021900190174026189, -0.040000000000000001}, {-0.00069946107621811013, -0.043100392819870062},
+      {-0.00028427778483451822, -0.043670013961782134}, {-0.0002272267155698892, -0.043727730758957598},
+      {-0.00014234674904060941, -0.043794295784543365}, {-2.9424319327589332e-05, -0.043869125217208579},
+      {0.00010773046047953058, -0.043948493087124813}, {0.00039937054219463182, -0.044089503185869065},
+      {0.00067725877091660911, -0.044190581009197094}, {0.0007871043059270317, -0.044217084201464363},
+      {0.000870898394502041, -0.044226084383307135}, {0.0015790381909354845, -0.044194771809268639},
+      {0.019945537554522032, -0.040000000000000001}, {0.19508259099809194, 0},
+      {0.24370939641180869, 0.011106000576716239}, {0.45562451147011962, 0}};
+  const std::vector<int> layers(profile.size() - 1, 0);
+  struct Leg {  // a leg's Groove fields
+    Vec2d tdir, bdir;
+    double t0, b0, rho, t_lo, t_hi;
+  };
+  const Leg legs[] = {
+      {{0.51754683256149292, 0.85565495491027832}, {-0.85565495491027832, 0.51754683256149292},
+       0.20262896960341098, 0.23883648436760913, 0.011635021367304099, -4.0000364498339263, 0},
+      {{0.51754617691040039, -0.85565531253814697}, {0.85565531253814697, 0.51754617691040039},
+       -0.30561217594337475, 0.068575239720871414, 0.012458374490630815, 0, 0.38070579191811582},
+      {{0.15144339203834534, 0.98846602439880371}, {-0.98846602439880371, 0.15144339203834534},
+       0.57065302771297921, 0.38741455635315358, 0.012646366948406254, 0, 0.60944894782089865},
+      {{-0.5495331883430481, 0.8354719877243042}, {-0.8354719877243042, -0.5495331883430481},
+       0.23064953687158812, 0.3136812921298508, 0.0087234517679689611, 0, 0.68381922318694777},
+      {{0.76536798477172852, -0.6435929536819458}, {0.6435929536819458, 0.76536798477172852},
+       0.34463203252104935, -0.43010170865485398, 0.0049616722358536251, 0, 3.9999987624998097},
+  };
+  std::vector<Groove> chain;
+  for (const Leg& l : legs) {
+    Groove g = along(l.tdir, l.b0, 7);
+    g.bdir = l.bdir;
+    g.pts = &profile;
+    g.layer = &layers;
+    g.t0 = l.t0;
+    g.rho = l.rho;
+    g.t_lo = l.t_lo;
+    g.t_hi = l.t_hi;
+    chain.push_back(g);
+  }
+  const Poly region = rect(-0.67500783696211875, -0.6746906033474952, 0.67500783696211875, 0.6746906033474952);
+  std::vector<Groove> parts;
+  ASSERT_TRUE(chainParts(chain, 0.13297392943691924, region, parts));
+  int most = 0;
+  for (const Groove& q : parts) most = std::max(most, q.n_dom);
+  EXPECT_LE(most, Groove::kMaxDom);
+  Surface s;  // (at the close views' cap, as the integrator builds it)
+  ASSERT_TRUE(s.build(region, {ofParts(parts, 7)}, Surface::kMaxPiecesClose));
+  double area = 0;
+  for (const Piece& pc : s.pieces()) area += pc.wall ? 0.0 : pc.poly.area();
+  EXPECT_NEAR(area, region.area(), 1e-9);
+  // The domains tile the region: each point of a grid over it lies in one of them (a line dropped
+  // that bounds its cell would open the domain over a neighbour's).
+  int shared = 0, missed = 0;
+  for (int j = 0; j <= 150; ++j)
+    for (int i = 0; i <= 150; ++i) {
+      const Vec2d p(-0.67 + 1.34 * (i + 0.31) / 151, -0.67 + 1.34 * (j + 0.57) / 151);
+      int in = 0;
+      for (const Groove& q : parts) {
+        bool holds = true;
+        for (int k = 0; k < q.n_dom && holds; ++k) holds = q.dom[k].holds(p);
+        in += holds;
+      }
+      shared += in > 1;
+      missed += in == 0;
+    }
+  EXPECT_EQ(shared, 0);
+  EXPECT_EQ(missed, 0);
+  std::printf("[          ] %zu parts, at most %d half-planes each; grid points in two domains %d, in none %d\n",
+              parts.size(), most, shared, missed);
 }
 
 // The same where each pass is in pieces along its line (the integrator's scaleSegments, within a

@@ -858,8 +858,10 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
   // within kThinCut outside the line. The clipping can leave a vertex as a cluster of points a
   // rounding apart, and every line through it then counts as bounding the cell (prune); at a
   // corner's vertex, where all the edges of its fan's sectors meet, a leg's cell kept them all,
-  // only two of them bounding it. (Those lines are kept where the cap is not reached: so the
-  // partitions that fit it are as they were.)
+  // only two of them bounding it. The lines kept at the end must still imply every dropped one,
+  // else the chain is refused, so no domain reaches more than kThinCut past its cell's lines.
+  // (Those lines are kept where the cap is not reached: so the partitions that fit it are as they
+  // were.)
   Vec2d blo = bound.v[0], bhi = bound.v[0];
   bound.extend(blo, bhi);
   const Vec2d grow = bhi - blo;
@@ -871,20 +873,31 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
     b.push({blo.x - grow.x, bhi.y + grow.y});
     return b;
   }();
+  // Whether the lines h[0, n) except `skip` hold h within kThinCut over the grown region.
+  auto implies = [&](const HalfPlane* hs, int n, int skip, const HalfPlane& h) {
+    Poly rest = box;
+    for (int k = 0; k < n && !rest.empty(); ++k)
+      if (k != skip) rest = clip(rest, hs[k].a, hs[k].c);
+    const double tol = kThinCut * std::hypot(h.a.x, h.a.y);
+    bool held = !rest.empty();
+    for (int j = 0; j < rest.n && held; ++j)
+      held = h.a.x * rest.v[size_t(j)].x + h.a.y * rest.v[size_t(j)].y + h.c <= tol;
+    return held;
+  };
   for (Cell& c : cells) {
+    if (c.nh <= Groove::kMaxDom) continue;
+    HalfPlane dropped[2 * Groove::kMaxDom + 1];
+    int nd = 0;
     for (int i = c.nh - 1; i >= 0 && c.nh > Groove::kMaxDom; --i) {
-      Poly rest = box;
-      for (int k = 0; k < c.nh && !rest.empty(); ++k)
-        if (k != i) rest = clip(rest, c.h[k].a, c.h[k].c);
-      const HalfPlane& h = c.h[i];
-      const double tol = kThinCut * std::hypot(h.a.x, h.a.y);
-      bool implied = !rest.empty();
-      for (int j = 0; j < rest.n && implied; ++j)
-        implied = h.a.x * rest.v[size_t(j)].x + h.a.y * rest.v[size_t(j)].y + h.c <= tol;
-      if (!implied) continue;
+      if (!implies(c.h, c.nh, i, c.h[i])) continue;
+      dropped[nd++] = c.h[i];
       std::copy(c.h + i + 1, c.h + c.nh, c.h + i);
       --c.nh;
     }
+    // Each was implied by the lines kept at its turn; the lines kept at the end must imply them
+    // all, or the chain is refused (below).
+    for (int d = 0; d < nd && c.nh <= Groove::kMaxDom; ++d)
+      if (!implies(c.h, c.nh, -1, dropped[d])) c.nh = Groove::kMaxDom + 1;
   }
   for (const Cell& c : cells) {
     // (Every point has a nearest candidate: the path's closest point is on a leg's strip or, on

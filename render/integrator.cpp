@@ -2178,10 +2178,7 @@ class Tracer {
     // surfaces below keep the ordinary cap.
     size_t cap = double(enlarge) >= kCloseReach * gs.pixel_r ? ga::Surface::kMaxPiecesClose
                                                              : ga::Surface::kMaxPieces;
-    if (grow > 0) {
-      const double r = std::max(double(view_reach), double(enlarge)) + 1e-3;
-      cap = size_t(double(cap) * ((r + grow) / r) * ((r + grow) / r));
-    }
+    if (grow > 0) cap = size_t(double(cap) * ((reach_max + grow) / reach_max) * ((reach_max + grow) / reach_max));
     if (built) *built = 0;
     for (int whole = split ? 0 : 1; whole < 2; ++whole) {
       last = -1;

@@ -53,6 +53,25 @@ bool oneLine(const std::pair<Vec2d, Vec2d>& a, const std::pair<Vec2d, Vec2d>& b)
          std::fabs(d.x * a.second.y - d.y * a.second.x) <= 1e-9 * s;
 }
 
+// The distance from q to the segments first..last of a polyline (its points pts), in double.
+// open_front / open_back: the first segment runs on backwards past its start, the last on past
+// its end, as lines (a leg's end at a corner that it shares with the other leg asked).
+double legDistance(const std::vector<Vec2d>& pts, size_t first, size_t last, Vec2d q, bool open_front,
+                   bool open_back) {
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t i = first; i <= last && i + 1 < pts.size(); ++i) {
+    const Vec2d d = pts[i + 1] - pts[i];
+    const double l2 = dot(d, d);
+    if (!(l2 > 0)) continue;
+    double t = dot(q - pts[i], d) / l2;
+    if (!(i == first && open_front)) t = std::max(t, 0.0);
+    if (!(i == last && open_back)) t = std::min(t, 1.0);
+    const Vec2d e = pts[i] + d * t - q;
+    best = std::min(best, dot(e, e));
+  }
+  return std::sqrt(best);
+}
+
 // The rotation that takes unit vector a to unit vector b, applied to v (a and b not opposite).
 Vec3d turn(Vec3d a, Vec3d b, Vec3d v) {
   const double c = dot(a, b);
@@ -117,10 +136,13 @@ struct Vtx {
 
 // Cuts the polygon along the zero set of value `fi` of its vertices' f; keeps the side f >= 0
 // (keep_neg false) and, when `both`, also the side f <= 0. A new vertex lies on the edges that both
-// ends of its segment lie on, plus `on_bit`, and takes its f from `eval`.
+// ends of its segment lie on, plus `on_bit`, and takes its f from `eval`. Values curved_lo to
+// curved_hi - 1 are curved kinks: a crossing of one is moved onto it to within `refine`, and a new
+// vertex on a segment along one's cut takes 0 for it.
 template <class Eval>
 void cutPolygon(std::vector<Vtx>& poly, size_t fi, unsigned on_bit, bool both, const Eval& eval,
-                std::vector<std::vector<Vtx>>& out) {
+                std::vector<std::vector<Vtx>>& out, size_t curved_lo = 0, size_t curved_hi = 0,
+                double refine = 0) {
   bool neg = false, pos = false;
   for (const Vtx& v : poly) {
     neg |= v.f[fi] < 0;
@@ -143,11 +165,33 @@ void cutPolygon(std::vector<Vtx>& poly, size_t fi, unsigned on_bit, bool both, c
       const bool swap = uvLess(p1.uv, p0.uv);
       const Vtx& e0 = swap ? p1 : p0;
       const Vtx& e1 = swap ? p0 : p1;
-      const double t = e0.f[fi] / (e0.f[fi] - e1.f[fi]);
+      double t = e0.f[fi] / (e0.f[fi] - e1.f[fi]);
       Vtx c;
       c.uv = e0.uv + (e1.uv - e0.uv) * t;
       c.on = (p0.on & p1.on) | on_bit;
       c.f = eval(c.uv);
+      // A curved kink (fi in [curved_lo, curved_hi)): the crossing moved onto it, to within
+      // `refine` in value, by regula falsi (the Illinois variant) on the segment.
+      const bool curved = fi >= curved_lo && fi < curved_hi;
+      double ta = 0, fa = e0.f[fi], tb = 1, fb = e1.f[fi];
+      for (int it = 0, last = 0; curved && it < 16 && std::fabs(c.f[fi]) > refine; ++it) {
+        if ((c.f[fi] < 0) == (fa < 0)) {
+          ta = t, fa = c.f[fi];
+          if (last < 0) fb *= 0.5;
+          last = -1;
+        } else {
+          tb = t, fb = c.f[fi];
+          if (last > 0) fa *= 0.5;
+          last = 1;
+        }
+        t = ta + (tb - ta) * fa / (fa - fb);
+        c.uv = e0.uv + (e1.uv - e0.uv) * t;
+        c.f = eval(c.uv);
+      }
+      // On a segment along a curved kink's cut (both ends on it), the point is on that cut too (on
+      // its chord), whatever its value there.
+      for (size_t g = curved_lo; g < curved_hi; ++g)
+        if (e0.f[g] == 0 && e1.f[g] == 0) c.f[g] = 0.0;
       c.f[fi] = 0.0;
       lo_side.push_back(c);
       hi_side.push_back(std::move(c));
@@ -429,11 +473,23 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       KinkValues f;
       const Vec2f p(float(q.x), float(q.y));
       // Before all others, where a path passing more than once (or turning a corner) hands over
-      // from one leg to the next (Scratch::height takes the closest point): |b_i| - |b_j| for each
-      // two of its legs, b the signed distance from the leg's line. Within each side the closest
-      // point is on one leg and the kinks below are affine. First each b_i itself: |b_i| bends
-      // along the leg's line, so where that line crosses the cell (near a corner's vertex, at a
-      // loop's crossing) the chord of |b_i| - |b_j| = 0 over a piece across it missed the handover.
+      // from one leg to the next (Scratch::height takes the closest point): d_i - d_j for each two
+      // of its legs, d the distance to the leg's segments (legDistance). Within each side the
+      // closest point is on one leg and the kinks below are affine. First the signed distance b_i
+      // from each leg's line: d_i bends along it, so where that line crosses the cell (near a
+      // corner's vertex, at a loop's crossing) the chord of d_i - d_j = 0 over a piece across it
+      // missed the handover.
+      //
+      // Where a leg's closest point is its end (beyond a corner's vertex: the corner's round outer
+      // side, its cap), d_i is the distance to that point, and the handover with a leg passing
+      // beside the cap is a parabola. With the perturbation the two are at different scales and the
+      // height jumps along it. Until the forty-eighth session the handover was |b_i| - |b_j|, from
+      // the legs' lines, a straight line that is not where the closest point changes in a cap: the
+      // pieces there straddled the jump, and the walls stood on the cells' edges, facing along them
+      // (the corner fuzzer's c48_9 lacked a glint that the groove renderer drew from the parabola's
+      // wall). Two legs that meet at a corner run on past it as lines (legDistance's open ends):
+      // in the wedge beyond its vertex both would be the distance to the vertex, the same value,
+      // and d_i - d_j rounding noise, where now it is zero on the outer bisector, as it was.
       auto side = [&](const std::pair<Vec2d, Vec2d>& l) {
         const Vec2d d = q - l.first;
         return d.x * l.second.y - d.y * l.second.x;
@@ -443,10 +499,19 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       // (Not for two legs on one line, a path going exactly back over itself: the closest point
       // stays on the earlier, ScratchPath::closest breaking the tie, and |b_i| - |b_j| is rounding
       // noise, whose zero set cut the cell at random.)
-      for (const auto& ps : passes)
+      for (size_t k = 0; k < passes.size(); ++k) {
+        const std::vector<std::pair<Vec2d, Vec2d>>& ps = passes[k];
+        const std::vector<Vec2d>& pts = ps.empty() ? std::vector<Vec2d>() : near[k]->path().points();
         for (size_t i = 0; i < ps.size(); ++i)
-          for (size_t j = i + 1; j < ps.size(); ++j)
-            if (!oneLine(ps[i], ps[j])) f.push_back(std::fabs(side(ps[i])) - std::fabs(side(ps[j])));
+          for (size_t j = i + 1; j < ps.size(); ++j) {
+            if (oneLine(ps[i], ps[j])) continue;
+            const auto& li = legs[k][i];
+            const auto& lj = legs[k][j];
+            const bool i_then_j = li.second + 1 == lj.first, j_then_i = lj.second + 1 == li.first;
+            f.push_back(legDistance(pts, li.first, li.second, q, j_then_i, i_then_j) -
+                        legDistance(pts, lj.first, lj.second, q, i_then_j, j_then_i));
+          }
+      }
       // First every scratch's own kinks, then where two trade places: h_a - h_b is affine only
       // within pieces that are already on one facet of each (cut the other way round, the chord
       // of its bent zero set would leave pieces straddling it).
@@ -655,13 +720,22 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
         // A cell cut into more pieces than the cap keeps them and is not cut further (counted in
         // the stats): each piece still lies on the part, with the heights of its corners.
         const size_t nf = polys[0][0].f.size();
+        // The hand-overs between legs (after each leg's line in eval), [h_lo, h_hi), are curved
+        // where a leg's closest point is its end (a corner's cap): cutPolygon moves their
+        // crossings onto them, and a wall along one is asked for near the ends of its chords.
+        size_t h_lo = 0, h_hi = 0;
+        for (const auto& ps : passes) h_lo += ps.size();
+        h_hi = h_lo;
+        for (const auto& ps : passes)
+          for (size_t i = 0; i < ps.size(); ++i)
+            for (size_t j = i + 1; j < ps.size(); ++j) h_hi += !oneLine(ps[i], ps[j]);
         for (size_t fi = 0; fi < nf; ++fi) {
           if (polys.size() > opt.max_pieces_per_cell) {
             ++out.capped;
             break;
           }
           next.clear();
-          for (auto& poly : polys) cutPolygon(poly, fi, 0u, true, eval, next);
+          for (auto& poly : polys) cutPolygon(poly, fi, 0u, true, eval, next, h_lo, h_hi, merge);
           std::swap(polys, next);
         }
         // Map the pieces through the triangle. A point on an edge is placed along that edge alone
@@ -701,8 +775,10 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
           // are computed from float UVs, so a piece that small has no reliable facet.
           size_t w = 0;
           for (size_t k = 0; k < poly.size(); ++k)
-            if (w == 0 || std::fabs(poly[k].uv.x - poly[w - 1].uv.x) + std::fabs(poly[k].uv.y - poly[w - 1].uv.y) > merge)
-              poly[w++] = std::move(poly[k]);
+            if (w == 0 || std::fabs(poly[k].uv.x - poly[w - 1].uv.x) + std::fabs(poly[k].uv.y - poly[w - 1].uv.y) > merge) {
+              if (w != k) poly[w] = std::move(poly[k]);  // (a move onto itself would empty its values)
+              ++w;
+            }
           while (w > 1 && std::fabs(poly[0].uv.x - poly[w - 1].uv.x) + std::fabs(poly[0].uv.y - poly[w - 1].uv.y) <= merge) --w;
           poly.resize(w);
           const size_t m = poly.size();
@@ -734,7 +810,10 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
           // Walls: along each edge where the height beyond the edge is higher than this piece's
           // (a groove cutting through another's pile-up, an abrupt end), this, the lower piece,
           // raises a wall up to it. The height beyond is extrapolated to the edge from two points
-          // outside it.
+          // outside it. Whether there is a step is asked at the edge's midpoint, or, on an edge
+          // along a kink's cut (both ends on it), just inside its ends: a curved jump (a handover in
+          // a corner's cap) is cut along chords, whose midpoints lie up to 1e-4 mm off the curve at
+          // the automatic cell, more than the points asked beyond (jump_step); its ends lie on it.
           if (jumpy) {
             Vec3d bc;
             Vec3d nc;
@@ -748,7 +827,14 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
               n = n / ln;
               if ((mid.x - c.x) * n.x + (mid.y - c.y) * n.y < 0) n = n * -1.0;
               auto beyond = [&](Vec2d q) { return 2.0 * heightAt(q + n * jump_step) - heightAt(q + n * (2.0 * jump_step)); };
-              if (!(beyond(mid) - insideHeight(mid, c, hc) > jump_tol)) continue;
+              bool chord = false;  // (values are read after the merge above, which keeps them)
+              for (size_t fi = h_lo; fi < h_hi && !chord; ++fi) chord = poly[k].f[fi] == 0 && poly[k1].f[fi] == 0;
+              const Vec2d a1 = a + (b - a) * 0.01, b1 = b + (a - b) * 0.01;
+              const double step_mid = beyond(mid) - insideHeight(mid, c, hc);
+              const double step = chord ? std::max(step_mid, std::min(beyond(a1) - insideHeight(a1, c, hc),
+                                                                      beyond(b1) - insideHeight(b1, c, hc)))
+                                        : step_mid;
+              if (!(step > jump_tol)) continue;
               const double ta = std::max(hv[k], beyond(a)), tb = std::max(hv[k1], beyond(b));
               const Vec3d A0 = P[k], B0 = P[k1], A1 = Bs[k] + N[k] * ta, B1 = Bs[k1] + N[k1] * tb;
               const Vec3d inward = bc - (Bs[k] + Bs[k1]) * 0.5;  // the wall faces the lower piece

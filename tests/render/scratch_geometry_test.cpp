@@ -34,6 +34,46 @@ TriangleMesh plate20() {
 Profile pileUpProfile() {
   return Profile::fromPolyline({{-0.04, 0.0}, {-0.03, 0.005}, {0.0, -0.02}, {0.03, 0.005}, {0.04, 0.0}});
 }
+// The nearest hit of the ray o + t d (t > 0) among triangles `tris` of m, by brute force; 1e30
+// for none.
+double meshHitAmong(const TriangleMesh& m, const std::vector<size_t>& tris, Vec3d o, Vec3d d) {
+  double best = 1e30;
+  for (size_t t : tris) {
+    Vec3d p0(m.positions[m.indices[3 * t]]), e1 = Vec3d(m.positions[m.indices[3 * t + 1]]) - p0,
+        e2 = Vec3d(m.positions[m.indices[3 * t + 2]]) - p0;
+    Vec3d q = cross(d, e2);
+    double det = dot(e1, q);
+    if (std::fabs(det) < 1e-18) continue;
+    Vec3d sv = o - p0;
+    double u = dot(sv, q) / det;
+    if (u < 0 || u > 1) continue;
+    Vec3d r = cross(sv, e1);
+    double v = dot(d, r) / det;
+    if (v < 0 || u + v > 1) continue;
+    double tt = dot(e2, r) / det;
+    if (tt > 0 && tt < best) best = tt;
+  }
+  return best;
+}
+// The same ray marched through the scratches' height field (world = uv + shift, z up) up to
+// t_max: the first t where it is below the surface, refined by bisection; 1e30 for none.
+double fieldHitOf(const std::vector<const Scratch*>& list, Vec3d shift, Vec3d o, Vec3d d, double t_max) {
+  auto below = [&](double t) {
+    Vec3d p = o + d * t - shift;
+    return p.z <= double(scratchHeight(list, Vec2f(float(p.x), float(p.y))));
+  };
+  const double step = 2e-5;
+  double t0 = 0;
+  for (double t = step; t < t_max; t += step) {
+    if (below(t)) {
+      double lo = t0, hi = t;
+      for (int i = 0; i < 40; ++i) (below(0.5 * (lo + hi)) ? hi : lo) = 0.5 * (lo + hi);
+      return hi;
+    }
+    t0 = t;
+  }
+  return 1e30;
+}
 }  // namespace
 
 TEST(ScratchGeometry, VerticesFollowTheCrossSectionAndNormalsAreTheFacets) {
@@ -504,43 +544,6 @@ TEST(ScratchGeometry, JumpsBecomeWallsAndRaysHitTheHeightField) {
     if ((std::fabs(c.x - 2) < 0.3 && std::fabs(c.y - 2) < 0.3) || (std::fabs(c.x - 1) < 0.3 && std::fabs(c.y - 2) < 0.3))
       tris.push_back(t);
   }
-  auto meshHit = [&](Vec3d o, Vec3d d) {
-    double best = 1e30;
-    for (size_t t : tris) {
-      Vec3d p0(m.positions[m.indices[3 * t]]), e1 = Vec3d(m.positions[m.indices[3 * t + 1]]) - p0, e2 = Vec3d(m.positions[m.indices[3 * t + 2]]) - p0;
-      Vec3d q = cross(d, e2);
-      double det = dot(e1, q);
-      if (std::fabs(det) < 1e-18) continue;
-      Vec3d s = o - p0;
-      double u = dot(s, q) / det;
-      if (u < 0 || u > 1) continue;
-      Vec3d r = cross(s, e1);
-      double v = dot(d, r) / det;
-      if (v < 0 || u + v > 1) continue;
-      double tt = dot(e2, r) / det;
-      if (tt > 0 && tt < best) best = tt;
-    }
-    return best;
-  };
-  // Marched through the height field: the first t where the ray is below the surface, refined by
-  // bisection.
-  auto fieldHit = [&](Vec3d o, Vec3d d) {
-    auto below = [&](double t) {
-      Vec3d p = o + d * t - shift;
-      return p.z <= double(scratchHeight(list, Vec2f(float(p.x), float(p.y))));
-    };
-    const double step = 2e-5;
-    double t0 = 0;
-    for (double t = step; t < 1.0; t += step) {
-      if (below(t)) {
-        double lo = t0, hi = t;
-        for (int i = 0; i < 40; ++i) (below(0.5 * (lo + hi)) ? hi : lo) = 0.5 * (lo + hi);
-        return hi;
-      }
-      t0 = t;
-    }
-    return 1e30;
-  };
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> U(0, 1);
   int n = 0, off = 0, walls_hit = 0;
@@ -554,7 +557,7 @@ TEST(ScratchGeometry, JumpsBecomeWallsAndRaysHitTheHeightField) {
     const double elev = 0.35 + 0.9 * U(rng), az = at_end ? kPi * (U(rng) - 0.5) : 2 * kPi * U(rng);
     Vec3d d(-std::cos(elev) * std::cos(az), -std::cos(elev) * std::sin(az), -std::sin(elev));
     Vec3d o = target + shift - d * (0.05 / std::sin(elev));  // 0.05 mm above the plate
-    double tm = meshHit(o, d), tf = fieldHit(o, d);
+    double tm = meshHitAmong(m, tris, o, d), tf = fieldHitOf(list, shift, o, d, 1.0);
     ASSERT_LT(tf, 1e29);
     ++n;
     const double err = std::fabs(tm - tf);
@@ -734,4 +737,100 @@ TEST(ScratchGeometry, WallsTakeTheChartsTangentAsTheGrooveRendererCarriesIt) {
   EXPECT_GT(walls, 50u);
   EXPECT_LT(mean, 1e-3);
   EXPECT_GT(mean_orthogonal, 0.1);
+}
+
+// A path's corner whose round outer side (its cap, where the closest point is the vertex) lies
+// near a later leg of the same path: the two hand over where the distance to the vertex equals the
+// distance to the leg, a parabola, and with the perturbation the two are at different scales, so
+// the height jumps along it. The builder cut the hand-over between two legs along |b_i| = |b_j|
+// (b the distance from each leg's line), a straight line that is not where the closest point
+// changes in the cap, so the pieces there straddled the jump and its walls stood on the cells'
+// edges, facing along them (the corner fuzzer's c48_9: a glint the groove renderer drew from the
+// parabola's wall was missing in the reference).
+TEST(ScratchGeometry, ACornersCapHandsOverToAnotherLegAlongTheirCurve) {
+  TriangleMesh plate = plate20();
+  // Leg 0 runs right to the corner V = (10, 10.13), leg 1 goes back left to W = (9.2, 10), and
+  // leg 2 runs right along y = 10 past V's cap.
+  const Vec2d V(10.0, 10.13);
+  const ScratchPath path = ScratchPath::polyline({{6.0, 10.13}, V, {9.2, 10.0}, {11.5, 10.0}});
+  ASSERT_EQ(path.corners().size(), 2u);
+  ScratchPerturbation pert;
+  pert.noise_amplitude = 0.3;
+  pert.noise_wavelength_mm = 1.5;
+  pert.noise_seed = 3;
+  std::vector<Vec2d> pts = pileUpProfile().pts;
+  for (Vec2d& q : pts) q = q * 3.0;  // 0.24 mm wide, 0.06 deep, pile-ups 0.015 high
+  Scratch s = Scratch::fromProfile(path, Profile::fromPolyline(pts), pert);
+  const double s_v = path.corners()[0].s;
+  const double s_leg2 = path.corners()[1].s + 0.85;  // leg 2's point beside V
+  ASSERT_GT(std::fabs(s.scaleAt(float(s_v)) - s.scaleAt(float(s_leg2))), 0.05);
+  std::vector<const Scratch*> list{&s};
+  // The hand-over in the cap: |p - V| = y - 10, for x > 10.
+  auto handover = [&](double x) {
+    const double dx = x - V.x, c = V.y - 10.0;
+    return 10.0 + (dx * dx + c * c) / (2.0 * c);
+  };
+  // The jump along it.
+  double jump = 0;
+  for (double x = 10.0; x <= 10.1; x += 0.01) {
+    const double y = handover(x);
+    jump = std::max(jump, std::fabs(double(scratchHeight(list, Vec2f(float(x), float(y - 2e-4)))) -
+                                    double(scratchHeight(list, Vec2f(float(x), float(y + 2e-4))))));
+  }
+  ASSERT_GT(jump, 1e-3);
+  ScratchGeometryOptions o;
+  o.cell_mm = 0.01;
+  TriangleMesh m = scratchedMesh(plate, list, o);
+  const Vec3d shift = Vec3d(plate.positions[0]) - Vec3d(plate.uvs[0].x, plate.uvs[0].y, 0.0);
+  std::vector<size_t> tris;
+  size_t near = 0, off = 0;
+  for (size_t t = 0; t < m.triangleCount(); ++t) {
+    const uint32_t* id = &m.indices[3 * t];
+    const Vec2f a = m.uvs[id[0]], b = m.uvs[id[1]], c = m.uvs[id[2]];
+    const Vec2f g = (a + b + c) / 3.0f;
+    if (!(g.x > 9.9f && g.x < 10.2f && g.y > 9.95f && g.y < 10.2f)) continue;
+    tris.push_back(t);
+    if (!(std::fabs(cross(b - a, c - a)) > 1e-14f)) continue;  // a wall
+    // Within a band of the hand-over, but not so close to it that the centroid can lie between
+    // the curve and the chord it is cut along (at most 1e-4 mm apart over a cell).
+    const double dy = std::fabs(g.y - handover(g.x));
+    if (!(g.x > 10.0f && g.x < 10.1f && dy < 0.01 && dy > 5e-4)) continue;
+    ++near;
+    const double h = (double(m.heights[id[0]]) + m.heights[id[1]] + m.heights[id[2]]) / 3.0;
+    // (The cap's kinks are circles, also cut along chords: up to 2e-4 mm off in height.)
+    off += std::fabs(h - double(scratchHeight(list, g))) > 1e-3;
+  }
+  EXPECT_GT(near, 50u);
+  EXPECT_EQ(off, 0u) << off << " of " << near << " triangles beside the hand-over off the height field";
+  // Rays at the hand-over's wall from both sides, against the height field marched.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(0, 1);
+  int n = 0, rays_off = 0, walls_hit = 0;
+  double worst = 0;
+  for (int i = 0; i < 200; ++i) {
+    // Aim at a point of the hand-over, along the normal of the curve, low (the jump is a few
+    // micrometres): which side is low depends on the scales, so both directions.
+    const double x = 10.005 + 0.09 * U(rng), y = handover(x);
+    Vec2d nrm(-(x - V.x) / (V.y - 10.0), 1.0);  // the curve's normal (gradient of y - handover(x))
+    nrm = nrm / std::sqrt(dot(nrm, nrm));
+    const double sgn = i % 2 ? 1.0 : -1.0, elev = 0.05 + 0.3 * U(rng);
+    // Halfway up the jump.
+    const double z = 0.5 * (double(scratchHeight(list, Vec2f(float(x - 2e-4 * nrm.x), float(y - 2e-4 * nrm.y)))) +
+                            double(scratchHeight(list, Vec2f(float(x + 2e-4 * nrm.x), float(y + 2e-4 * nrm.y)))));
+    const Vec3d target(x, y, z);
+    const Vec3d d = normalize(Vec3d(sgn * nrm.x * std::cos(elev), sgn * nrm.y * std::cos(elev), -std::sin(elev)));
+    const Vec3d o = target + shift - d * 0.02;
+    double tm = meshHitAmong(m, tris, o, d), tf = fieldHitOf(list, shift, o, d, 0.2);
+    if (!(tf < 1e29)) continue;
+    ++n;
+    const double err = std::fabs(tm - tf);
+    worst = std::max(worst, err);
+    rays_off += err > 2e-4;
+    Vec3d p = o + d * tf - shift, q = p - Vec3d(d.x, d.y, 0.0) * 1e-5;
+    walls_hit += std::fabs(double(scratchHeight(list, Vec2f(float(p.x), float(p.y)))) -
+                           double(scratchHeight(list, Vec2f(float(q.x), float(q.y))))) > 5e-4;
+  }
+  EXPECT_GT(n, 150);
+  EXPECT_GT(walls_hit, 20);
+  EXPECT_EQ(rays_off, 0) << "of " << n << " rays (" << walls_hit << " at the wall); worst |t_mesh - t_field| " << worst;
 }

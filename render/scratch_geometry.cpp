@@ -501,7 +501,8 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       // noise, whose zero set cut the cell at random.)
       for (size_t k = 0; k < passes.size(); ++k) {
         const std::vector<std::pair<Vec2d, Vec2d>>& ps = passes[k];
-        const std::vector<Vec2d>& pts = ps.empty() ? std::vector<Vec2d>() : near[k]->path().points();
+        if (ps.empty()) continue;
+        const std::vector<Vec2d>& pts = near[k]->path().points();
         for (size_t i = 0; i < ps.size(); ++i)
           for (size_t j = i + 1; j < ps.size(); ++j) {
             if (oneLine(ps[i], ps[j])) continue;

@@ -456,6 +456,13 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
     // itself, the legs of a corner): each leg's line (a point and its unit tangent) at the cell's
     // centre; empty for one leg.
     std::vector<std::vector<std::pair<Vec2d, Vec2d>>> passes;
+    // The pairs of legs whose handover cuts the cell (legs i < j of near[k], not on one line), and
+    // which of them runs into the other at a corner.
+    struct Handover {
+      size_t k, i, j;
+      bool i_then_j, j_then_i;
+    };
+    std::vector<Handover> handovers;
     std::vector<PathPoint> branches;
     std::vector<std::pair<size_t, size_t>> runs;
     std::vector<uint32_t> tris;
@@ -496,22 +503,15 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       };
       for (const auto& ps : passes)
         for (const auto& l : ps) f.push_back(side(l));
-      // (Not for two legs on one line, a path going exactly back over itself: the closest point
-      // stays on the earlier, ScratchPath::closest breaking the tie, and |b_i| - |b_j| is rounding
-      // noise, whose zero set cut the cell at random.)
-      for (size_t k = 0; k < passes.size(); ++k) {
-        const std::vector<std::pair<Vec2d, Vec2d>>& ps = passes[k];
-        if (ps.empty()) continue;
-        const std::vector<Vec2d>& pts = near[k]->path().points();
-        for (size_t i = 0; i < ps.size(); ++i)
-          for (size_t j = i + 1; j < ps.size(); ++j) {
-            if (oneLine(ps[i], ps[j])) continue;
-            const auto& li = legs[k][i];
-            const auto& lj = legs[k][j];
-            const bool i_then_j = li.second + 1 == lj.first, j_then_i = lj.second + 1 == li.first;
-            f.push_back(legDistance(pts, li.first, li.second, q, j_then_i, i_then_j) -
-                        legDistance(pts, lj.first, lj.second, q, i_then_j, j_then_i));
-          }
+      // (`handovers` leaves out two legs on one line, a path going exactly back over itself: the
+      // closest point stays on the earlier, ScratchPath::closest breaking the tie, and d_i - d_j
+      // is rounding noise, whose zero set cut the cell at random.)
+      for (const Handover& ho : handovers) {
+        const std::vector<Vec2d>& pts = near[ho.k]->path().points();
+        const auto& li = legs[ho.k][ho.i];
+        const auto& lj = legs[ho.k][ho.j];
+        f.push_back(legDistance(pts, li.first, li.second, q, ho.j_then_i, ho.i_then_j) -
+                    legDistance(pts, lj.first, lj.second, q, ho.i_then_j, ho.j_then_i));
       }
       // First every scratch's own kinks, then where two trade places: h_a - h_b is affine only
       // within pieces that are already on one facet of each (cut the other way round, the chord
@@ -572,6 +572,7 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
       near_h.clear();
       passes.clear();
       legs.clear();
+      handovers.clear();
       bool passing = false;  // some path has two legs near the cell (two passes, or a corner's legs)
       if (c.size == 1) {
         Box2 cb{Vec2f(float(q00.x), float(q00.y)), Vec2f(float(q11.x), float(q11.y))};
@@ -628,6 +629,19 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
         }
       }
       heights = c.size == 1 ? &near_h : &scratches;
+      // The handovers, and where their values lie in eval's: after each leg's line, [h_lo, h_hi).
+      // They are curved where a leg's closest point is its end (a corner's cap): cutPolygon moves
+      // their crossings onto them, and a wall along one is asked for near the ends of its chords.
+      size_t h_lo = 0;
+      for (size_t k = 0; k < passes.size(); ++k) {
+        h_lo += passes[k].size();
+        for (size_t i = 0; i < passes[k].size(); ++i)
+          for (size_t j = i + 1; j < passes[k].size(); ++j)
+            if (!oneLine(passes[k][i], passes[k][j]))
+              handovers.push_back({k, i, j, legs[k][i].second + 1 == legs[k][j].first,
+                                   legs[k][j].second + 1 == legs[k][i].first});
+      }
+      const size_t h_hi = h_lo + handovers.size();
       // The kinks that cut this cell. One closer to the last kept than the offsets' rounding
       // (`merge`) at the scale of the cell's centre is left out: where a fade or the perturbation
       // shrinks the cross-section to nanometres, the order of its kinks is rounding noise, and
@@ -721,15 +735,6 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
         // A cell cut into more pieces than the cap keeps them and is not cut further (counted in
         // the stats): each piece still lies on the part, with the heights of its corners.
         const size_t nf = polys[0][0].f.size();
-        // The hand-overs between legs (after each leg's line in eval), [h_lo, h_hi), are curved
-        // where a leg's closest point is its end (a corner's cap): cutPolygon moves their
-        // crossings onto them, and a wall along one is asked for near the ends of its chords.
-        size_t h_lo = 0, h_hi = 0;
-        for (const auto& ps : passes) h_lo += ps.size();
-        h_hi = h_lo;
-        for (const auto& ps : passes)
-          for (size_t i = 0; i < ps.size(); ++i)
-            for (size_t j = i + 1; j < ps.size(); ++j) h_hi += !oneLine(ps[i], ps[j]);
         for (size_t fi = 0; fi < nf; ++fi) {
           if (polys.size() > opt.max_pieces_per_cell) {
             ++out.capped;

@@ -1420,6 +1420,11 @@ void Surface::binPieces() {
   bin_lo_ = lo;
   bin_size_ = Vec2d(std::max((hi.x - lo.x) / kBins, 1e-300), std::max((hi.y - lo.y) / kBins, 1e-300));
   words_ = (pieces_.size() + 63) / 64;
+  cull_.resize(pieces_.size());
+  for (size_t i = 0; i < pieces_.size(); ++i) {
+    const Piece& pc = pieces_[i];
+    cull_[i] = {pc.plane.g.x, pc.plane.g.y, pc.plane.z0, pc.lo.x, pc.lo.y, pc.hi.x, pc.hi.y, pc.zmax};
+  }
   col_bits_.assign(size_t(kBins) * words_, 0);
   row_bits_.assign(size_t(kBins) * words_, 0);
   for (size_t i = 0; i < pieces_.size(); ++i) {
@@ -1429,6 +1434,12 @@ void Surface::binPieces() {
     for (int r = binOf(pieces_[i].lo.y, 1), r1 = binOf(pieces_[i].hi.y, 1); r <= r1; ++r)
       row_bits_[size_t(r) * words_ + i / 64] |= bit;
   }
+  rows_or_.assign(size_t(kBins * (kBins + 1) / 2) * words_, 0);
+  for (int r0 = 0; r0 < kBins; ++r0)
+    for (int r1 = r0; r1 < kBins; ++r1)
+      for (size_t w = 0; w < words_; ++w)
+        rows_or_[rowRange(r0, r1) * words_ + w] =
+            row_bits_[size_t(r1) * words_ + w] | (r1 > r0 ? rows_or_[rowRange(r0, r1 - 1) * words_ + w] : 0);
 }
 
 void Surface::candidates(const Plane& P, double den, Vec3d d, Vec2d lo, Vec2d hi, std::vector<size_t>& out) const {
@@ -1445,7 +1456,34 @@ void Surface::candidates(const Plane& P, double den, Vec3d d, Vec2d lo, Vec2d hi
   const int c1 = binOf(std::max(hi.x, hi.x + lmax * d.x) + margin, 0);
   const int r0 = binOf(std::min(lo.y, lo.y + lmax * d.y) - margin, 1);
   const int r1 = binOf(std::max(hi.y, hi.y + lmax * d.y) + margin, 1);
-  inBins(c0, c1, r0, r1, out);
+  // Those points lie in the strip {p + lambda d_xy: p in [lo, hi], 0 <= lambda <= lmax}, which
+  // for a slanted d fills a small part of its box: within column c's slab of x, only the rows that
+  // the strip crosses there can hold them.
+  int rlo[kBins], rhi[kBins];
+  for (int c = c0; c <= c1; ++c) {
+    const double x0 = c == 0 ? -1e300 : bin_lo_.x + bin_size_.x * c - margin;
+    const double x1 = c == kBins - 1 ? 1e300 : bin_lo_.x + bin_size_.x * (c + 1) + margin;
+    double la = 0, lb = lmax;  // the lambdas for which the strip meets the slab
+    if (d.x > 0) {
+      la = std::max(la, (x0 - hi.x) / d.x);
+      lb = std::min(lb, (x1 - lo.x) / d.x);
+    } else if (d.x < 0) {
+      la = std::max(la, (x1 - lo.x) / d.x);
+      lb = std::min(lb, (x0 - hi.x) / d.x);
+    }
+    if (!(la <= lb)) {  // rounding or NaN: the whole range, which is safe
+      la = 0;
+      lb = lmax;
+    }
+    rlo[c] = std::max(r0, binOf(lo.y + std::min(la * d.y, lb * d.y) - margin, 1));
+    rhi[c] = std::min(r1, binOf(hi.y + std::max(la * d.y, lb * d.y) + margin, 1));
+  }
+  for (size_t w = 0; w < words_; ++w) {
+    uint64_t m = 0;
+    for (int c = c0; c <= c1; ++c)
+      if (rlo[c] <= rhi[c]) m |= col_bits_[size_t(c) * words_ + w] & rows_or_[rowRange(rlo[c], rhi[c]) * words_ + w];
+    for (; m; m &= m - 1) out.push_back(w * 64 + size_t(__builtin_ctzll(m)));
+  }
 }
 
 void Surface::inBins(int c0, int c1, int r0, int r1, std::vector<size_t>& out) const {
@@ -1484,12 +1522,22 @@ void Surface::shadowsOn(size_t pi, Vec3d d, Vec2d lo, Vec2d hi, std::vector<Poly
     return qlo.x + std::min(0.0, sx) <= hi.x && qhi.x + std::max(0.0, sx) >= lo.x &&
            qlo.y + std::min(0.0, sy) <= hi.y && qhi.y + std::max(0.0, sy) >= lo.y;
   };
+  // Across d: moving along d keeps a point's coordinate along n = (-d.y, d.x), so an occluder's
+  // box must overlap the receiving box there (with a margin for the rounding of the projection).
+  const double nx = -d.y, ny = d.x;
+  const double ra = std::min(nx * lo.x, nx * hi.x) + std::min(ny * lo.y, ny * hi.y);
+  const double rb = std::max(nx * lo.x, nx * hi.x) + std::max(ny * lo.y, ny * hi.y);
+  const double rmargin = 1e-9 * (std::fabs(nx) + std::fabs(ny)) * (bin_size_.x + bin_size_.y) * kBins + 1e-15;
   thread_local std::vector<size_t> near;
   candidates(P, den, d, lo, hi, near);
   for (size_t qi : near) {
+    const Cull& C = cull_[qi];
+    const double qa = std::min(nx * C.lox, nx * C.hix) + std::min(ny * C.loy, ny * C.hiy);
+    const double qb = std::max(nx * C.lox, nx * C.hix) + std::max(ny * C.loy, ny * C.hiy);
+    if (qa > rb + rmargin || qb < ra - rmargin) continue;
+    if (!(d.z - C.gx * d.x - C.gy * d.y < 0)) continue;  // only pieces facing away from d block it
+    if (!reaches(Vec2d(C.lox, C.loy), Vec2d(C.hix, C.hiy), C.zmax)) continue;
     const Piece& Q = pieces_[qi];
-    if (!(facing(Q.plane, d) < 0)) continue;  // only pieces facing away from d block it
-    if (!reaches(Q.lo, Q.hi, Q.zmax)) continue;
     // The part of Q on the d-side of P's plane: Q(p) - P(p) >= 0.
     Poly q = clip(Q.poly, P.g - Q.plane.g, P.z0 - Q.plane.z0);
     if (q.empty()) continue;

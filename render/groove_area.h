@@ -347,16 +347,31 @@ class Surface {
   // crossings) to 2.5% (a dense cluster) can reach the receiving portion. The region's box is cut
   // into kBins columns and kBins rows; bit i of a column's (row's) word set says that piece i's
   // box reaches into it. A query ORs the columns and the rows under its box and tests only the
-  // pieces in both, in their order, so that the result is the same as testing them all.
+  // pieces in both, in their order, so that the result is the same as testing them all. A shadow
+  // query (candidates()) takes, for each column, only the rows its strip crosses there.
   static constexpr int kBins = 16;
   Vec2d bin_lo_{0, 0}, bin_size_{1, 1};
   double zmax_all_ = 0;  // the highest point of any piece
   size_t words_ = 0;     // 64-bit words per set
   std::vector<uint64_t> col_bits_, row_bits_;
+  // What shadowsOn's tests read of each candidate before it clips one, one cache line per piece
+  // (a Piece holds its polygon's 40 vertices, 728 bytes): in the close view of the accuracy
+  // scene `spot` a surface has about 4,100 pieces, the bins gave about 1,250 candidates per call
+  // and 75 of them passed the tests of the time.
+  struct alignas(64) Cull {
+    double gx, gy, z0;        // the plane
+    double lox, loy, hix, hiy;  // the box
+    double zmax;
+  };
+  std::vector<Cull> cull_;
+  // The union of rows r0..r1 (r0 <= r1) for every such pair, at rowRange(r0, r1) * words_.
+  std::vector<uint64_t> rows_or_;
+  static size_t rowRange(int r0, int r1) { return size_t(r0 * kBins - r0 * (r0 - 1) / 2 + (r1 - r0)); }
   void binPieces();
   int binOf(double v, int axis) const;
-  // The pieces, in order, whose bins meet the box where an occluder of P's portion in [lo, hi]
-  // along d (den: P's N.d, > 0) can lie: a superset of those that can shadow it.
+  // The pieces, in order, whose bins meet the strip where an occluder of P's portion in [lo, hi]
+  // along d (den: P's N.d, > 0) can lie (the box swept along d_xy, column by column): a superset
+  // of those that can shadow it.
   void candidates(const Plane& P, double den, Vec3d d, Vec2d lo, Vec2d hi, std::vector<size_t>& out) const;
   // Appends the pieces, in order, that are in one of the columns c0..c1 and one of the rows r0..r1.
   void inBins(int c0, int c1, int r0, int r1, std::vector<size_t>& out) const;

@@ -1126,6 +1126,10 @@ bool Surface::cutPieces(const Poly& region, const std::vector<Groove>& grooves, 
         continue;
       }
     }
+    // Where every f_j >= 0: the same for every a below, so cut once.
+    Poly above_all = c.poly;
+    for (size_t j = 1; j <= G && !above_all.empty(); ++j)
+      above_all = clip(above_all, c.f[j - 1].g * -1.0, -c.f[j - 1].z0);
     for (size_t a = 0; a <= G; ++a) {
       if (a > 0 && c.zero[a - 1]) continue;  // a zero plane never wins over the base
       const Plane& fa = a == 0 ? zero : c.f[a - 1];
@@ -1143,8 +1147,7 @@ bool Surface::cutPieces(const Poly& region, const std::vector<Groove>& grooves, 
         }
       }
       // Case "above": every f_j >= 0 and f_a highest.
-      Poly p = c.poly;
-      for (size_t j = 1; j <= G && !p.empty(); ++j) p = clip(p, c.f[j - 1].g * -1.0, -c.f[j - 1].z0);
+      Poly p = above_all;
       for (size_t j = 0; j <= G && !p.empty(); ++j) {
         if (j == a) continue;
         const Plane& fj = j == 0 ? zero : c.f[j - 1];

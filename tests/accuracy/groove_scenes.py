@@ -527,6 +527,39 @@ LAYOUTS["tightloop"] = """
     pileup: 0.96
 """
 
+# Three groups of scratches crossing near the view's centre: five at 34 degrees, six at 150 and six
+# at random angles, 17 in all, for a view at 2 degrees, 48 pixels (the clusters fuzzer's c52_5 at its
+# seed). Beside the crossings a footprint's region holds more than 16 grooves at the full and the half
+# reach when the curved ones are cut into pieces along their paths, but not at the half reach with
+# each whole; the centre is past the caps at every reach (trimmed footprints).
+LAYOUTS["groups"] = """
+  - type: scratch
+    count: 5
+    orientation_deg: 34
+    length_mm: 3.2
+    force_kg: 1.89
+    hardness_hv: 20
+    region: [0.4830, 0.4699, 0.4999, 0.4868]
+    curvature_per_mm: {uniform: [0.02, 0.2]}
+  - type: scratch
+    count: 6
+    orientation_deg: 150
+    length_mm: 4.8
+    force_kg: 2.91
+    hardness_hv: 20
+    region: [0.5218, 0.4714, 0.5341, 0.4836]
+    curvature_per_mm: {uniform: [0.02, 0.2]}
+    fade_mm: 0.00
+    pileup: 0.12
+  - type: scratch
+    count: 6
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 4.8
+    force_kg: 3.64
+    hardness_hv: 30
+    region: [0.5185, 0.4813, 0.5354, 0.4983]
+"""
+
 LIGHTS = {
     # Bright field through a glass part: a 12 x 12 mm panel 50 mm below the plate, facing up, which
     # the flat glass shows whole; a groove's facets refract the view off it.

@@ -500,6 +500,27 @@ class GrooveAccuracy(unittest.TestCase):
         self.assertLess(st["pct_ge_10"], 0.25)
         self.assertLess(st["mean"], 0.5)
 
+    def test_groups_ring(self):
+        """Three groups of scratches crossing near the view's centre (groove_scenes.LAYOUTS
+        ["groups"], the clusters fuzzer's c52_5) under the ring light, seen at 2 degrees, 48 x 48
+        pixels. Beside the crossings the polygons pass their caps at the full and the half reach
+        with the curved grooves in pieces, and fit at the half reach with each groove whole. Until
+        the fiftieth session the pieces were tried at every reach first and the region was built
+        over a quarter of the reach: the bands of crossings lost the ring's light bounced off the
+        walls beyond it and were darker than the reference, 0.694% of pixels >= 10 (mean dE
+        0.899); now 0.043% (0.577) (docs/grooves.md, "Fading tips in the polygons"). Its
+        centre is past the caps at every reach (trimmed footprints), so this is a regression
+        bound, not one of the issue's target scenes: 0.25% and a mean of 0.75."""
+        ref = render("groups_ring_ref", "groups", "ring", "geometry", REF_SPP, noise_seed=1, fov_deg=2, resolution=48)
+        grv = render("groups_ring_groove", "groups", "ring", "groove", 4, fov_deg=2, resolution=48)
+        used = footprints("groups_ring_groove")
+        st = compare(ref, grv, "groups_ring")
+        print("groups    ring  groove@4spp vs geometry@%dspp: mean dE %.3f, %.3f%% of pixels >= 10; "
+              "footprints %s" % (REF_SPP, st["mean"], st["pct_ge_10"], used), flush=True)
+        self.assertGreater(used["trimmed"], 0)
+        self.assertLess(st["pct_ge_10"], 0.25)
+        self.assertLess(st["mean"], 0.75)
+
 
 def _make(layout, light):
     def test(self):

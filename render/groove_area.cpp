@@ -1504,7 +1504,8 @@ void Surface::inBins(int c0, int c1, int r0, int r1, std::vector<size_t>& out) c
 
 namespace {
 // N.d up to a positive factor (N = (-g, 1)).
-inline double facing(const Plane& p, Vec3d d) { return d.z - p.g.x * d.x - p.g.y * d.y; }
+inline double facing(double gx, double gy, Vec3d d) { return d.z - gx * d.x - gy * d.y; }
+inline double facing(const Plane& p, Vec3d d) { return facing(p.g.x, p.g.y, d); }
 }  // namespace
 
 void Surface::shadowsOn(size_t pi, Vec3d d, Vec2d lo, Vec2d hi, std::vector<Poly>& out, std::vector<double>* dist,
@@ -1538,7 +1539,7 @@ void Surface::shadowsOn(size_t pi, Vec3d d, Vec2d lo, Vec2d hi, std::vector<Poly
     const double qa = std::min(nx * C.lox, nx * C.hix) + std::min(ny * C.loy, ny * C.hiy);
     const double qb = std::max(nx * C.lox, nx * C.hix) + std::max(ny * C.loy, ny * C.hiy);
     if (qa > rb + rmargin || qb < ra - rmargin) continue;
-    if (!(d.z - C.gx * d.x - C.gy * d.y < 0)) continue;  // only pieces facing away from d block it
+    if (!(facing(C.gx, C.gy, d) < 0)) continue;  // only pieces facing away from d block it
     if (!reaches(Vec2d(C.lox, C.loy), Vec2d(C.hix, C.hiy), C.zmax)) continue;
     const Piece& Q = pieces_[qi];
     // The part of Q on the d-side of P's plane: Q(p) - P(p) >= 0.

@@ -2159,7 +2159,6 @@ class Tracer {
     // reach where the grooves whole fitted at half of it: its bands of crossings lost the ring's
     // light bounced off walls beyond 0.18 mm, 0.78% of pixels >= 10 (mean dE 0.96) against 0.13%
     // (0.49) this way (docs/grooves.md, "Accuracy", the fuzzing of sessions 49 and 50).
-    double last = -1;
     // Whether a groove within the largest reach is in pieces (else the second round would build
     // the same surfaces again).
     // (A groove's pieces differ from it where there are several, or where they are one groove of
@@ -2191,7 +2190,7 @@ class Tracer {
       const double R = std::max(double(view_reach), f * double(enlarge)) + 1e-3 + grow;
       for (int whole = split ? 0 : 1; whole < 2; ++whole) {
         if (R == tried_at[whole]) continue;  // the view's reach is larger: the same region again
-        tried_at[whole] = last = R;
+        tried_at[whole] = R;
         order.clear();
         within.clear();
         for (size_t i = 0; i < grooves.size(); ++i)
@@ -2228,7 +2227,7 @@ class Tracer {
       if (n >= order.size()) continue;  // as many as that were tried above
       within.clear();
       for (size_t k = 0; k < n; ++k) within.push_back(grooves[order[k]]);
-      if (gs.surface.build(square(last), within)) return gs.trimmed = true;
+      if (gs.surface.build(square(tried_at[1]), within)) return gs.trimmed = true;  // the smallest
     }
     gs.capped = tried;
     return false;

@@ -394,9 +394,13 @@ class Tracer {
   // tint the flake lobe, and where a resolved flake is picked (probability = its sparkle weight)
   // the flake lobe becomes a near-mirror around that flake's normal; elsewhere the smooth flake
   // lobe keeps the rest of the flake energy, so the mean matches flake_amount.
-  static void applyPaint(Material& m, const PaintSample& ps) {
+  // With `resolve` false the flakes stay unresolved, the smooth flake lobe carrying all their
+  // energy: the mean over where the flakes lie, which a groove footprint's bounced directions
+  // meet (GrooveSet::beyond).
+  static void applyPaint(Material& m, const PaintSample& ps, bool resolve = true) {
     m.base_color *= ps.base_color_scale;
     m.flake_tint_scale = ps.flake_specular_scale;
+    if (!resolve) return;
     if (ps.use_flake_lobe) {
       m.flake_amount = 1.0f;
       m.flake_roughness = 0.1f;
@@ -728,6 +732,8 @@ class Tracer {
       if (glass_split) m.reflect_share = 0.5f;
       Vec2f peel(0.0f, 0.0f);
       bool flake_lobe = false;  // a resolved flake's lobe, its normal given in the frame (ns, dpdu)
+      bool resolved = false;    // the paint's flakes are resolved here (drawn or not)
+      Material m_beyond;        // the paint with its flakes unresolved (GrooveSet::beyond)
       // A groove footprint's camera hit came through its stratum's centre with the stratum's
       // differentials; what filters by the footprint looks at the whole pixel's (wholePixel).
       const bool stratum = depth == 0 && grooved == 1;
@@ -737,6 +743,11 @@ class Tracer {
         PaintSample ps = s_.paint->evaluate(sp.uv, paint_fp, rng.uniform());
         peel = ps.coat_height_grad;
         flake_lobe = ps.use_flake_lobe;
+        resolved = ps.sparkle_fade > 0 && ps.flake_coverage > 0;
+        if (resolved && depth == 0 && grooves_) {
+          m_beyond = m;
+          applyPaint(m_beyond, ps, false);
+        }
         applyPaint(m, ps);
       }
       // Camera hits on scratches: the groove renderer integrates the whole footprint.
@@ -745,6 +756,7 @@ class Tracer {
           if (has_paint_ && s_.paint->hasPeel()) setPeel(sp, paint_fp, sets);
           if (flake_lobe)
             for (GrooveSet& gs : sets) gs.frame_t = sp.dpdu;
+          for (GrooveSet& gs : sets) gs.beyond = resolved ? &m_beyond : nullptr;
           // (A scratch has no slope or cover here: its footprints are the grooves themselves.)
           if (has_other_defects_) {
             SurfacePoint spw = stratum ? wholePixel(sp) : sp;
@@ -759,7 +771,7 @@ class Tracer {
             // too: with probability `cover` every facet takes the weathered surface.
             if (has_weathering_ && dw.cover > 0 && rng.uniform() < dw.cover) {
               m = weathered(m, dw, 0.0f);
-              for (GrooveSet& gs : sets) gs.one_material = true;
+              for (GrooveSet& gs : sets) gs.one_material = true, gs.beyond = nullptr;
             }
           }
           L += beta * shadeGrooves(sets, m, wo_w, rng, nrays, pads, pad_s);
@@ -973,6 +985,11 @@ class Tracer {
     // flake's lobe, the surface's dpdu, the frame its flake normal is given in (as the path
     // tracer's frame at every hit), so that the same flake sparkles as in the explicit geometry.
     std::optional<Vec3f> frame_t;
+    // The material of the facets that the footprint's bounced directions meet (every level past
+    // the first, and the chains' far facets), where it differs from the camera hit's: those lie
+    // elsewhere on the surface, not under the resolved flake that the camera hit drew or not, so
+    // they take the paint with its flakes unresolved, their mean (Tracer::beyond). Null elsewhere.
+    const Material* beyond = nullptr;
     // The other defects' slope at the footprint (a bump-mapped dent's: the world vector that
     // applyDefects takes off a hit's normal there; zero without), which tilts every facet's normal
     // (bumped), as it tilts every hit of the explicit geometry, cut or not.
@@ -2546,6 +2563,7 @@ class Tracer {
     hs.F = gs.F + gs.T * float(c2.x) + gs.B * float(c2.y);
     hs.one_material = gs.one_material;
     hs.frame_t = gs.frame_t;
+    hs.beyond = gs.beyond;
     hs.bump = gs.bump;
     // The peel in its frame: its F at (c2.x, c2.y) of the footprint's (T, B), its B at bdir, and
     // its T = B x W = bdir.y T - bdir.x B.
@@ -2570,7 +2588,8 @@ class Tracer {
     shadow.resize(ls.size());
     for (size_t i = 0; i < ls.size(); ++i)
       shadow[i].reset(hs.section, Vec2d(dot(ls[i].wl, hs.B), dot(ls[i].wl, hs.W)));
-    return shadeLevel(LineGeometry{hs, hs.section, shadow}, top, {hit}, -d, beta, level + 1, ls, rng, nrays);
+    return shadeLevel(LineGeometry{hs, hs.section, shadow}, beyond(gs, top), {hit}, -d, beta, level + 1, ls, rng,
+                      nrays);
   }
 
   // A direction drawn from a footprint's portions (drawDirection).
@@ -2696,7 +2715,7 @@ class Tracer {
     };
     std::vector<Far> far;
     for (size_t k = 0; k < geo.facets(); ++k) {
-      const Material& m = facetMaterial(gs, geo.facetLayer(k), top);
+      const Material& m = facetMaterial(gs, geo.facetLayer(k), beyond(gs, top));
       const float cone = lobeCone(m);
       if (cone < 0) continue;
       for (const auto& q : seen) {
@@ -2839,7 +2858,8 @@ class Tracer {
     const typename Geometry::Portion& q = in.hits[pickByWeight(in.hits, rng.uniformD() * hsum)];
     if (!(q.weight > 0)) return L;
     // The facet seen from the solid: its normal turned into the solid, the relative index inverted.
-    const Material m = facing(facetMaterial(gs, geo.layer(q), top), false);
+    const Material& next = beyond(gs, top);
+    const Material m = facing(facetMaterial(gs, geo.layer(q), next), false);
     const Frame fr = facetFrame(gs, -geo.normal(q));
     const Vec3f wo = fr.toLocal(-d);
     if (wo.z <= 0) return L;
@@ -2852,14 +2872,14 @@ class Tracer {
     const Rgb beta2 = beta * bs.f * float(std::fabs(bs.wi.z) / bs.pdf * hsum / q.weight);
     if (!isFinite(beta2) || maxComponent(beta2) <= 0) return L;
     if (bs.wi.z > 0)  // reflected, still inside the solid
-      return L + throughGrooves(geo, top, q, d2, beta2, bs.pdf, level + 1, ls, rng, nrays, nl_eff, nl_env);
+      return L + throughGrooves(geo, next, q, d2, beta2, bs.pdf, level + 1, ls, rng, nrays, nl_eff, nl_env);
     const typename Geometry::Scatter out = geo.scatter(q, d2);
     if (out.escaped > 0 && dot(d2, gs.W) > 0) {
       const DiffRay r = bareRay(aboveGrooves(gs), d2);
       L += continuePath(r, beta2 * float(out.escaped), bs.pdf, true, r.o, 2 + level, rng, nrays, nl_eff, nl_env);
     }
     if (!out.hits.empty() && level + 2 < st_.max_bounces)
-      L += shadeLevel(geo, top, out.hits, -d2, beta2, level + 2, ls, rng, nrays);
+      L += shadeLevel(geo, next, out.hits, -d2, beta2, level + 2, ls, rng, nrays);
     return L;
   }
 
@@ -2966,7 +2986,7 @@ class Tracer {
       // The next level's direct light is shared with the direct-only directions when they were
       // followed there (lobeDirect), deeper levels' is not.
       if (!last && !sc.hits.empty())
-        L += shadeLevel(geo, top, sc.hits, -d, beta_next, level + 1, ls, rng, nrays,
+        L += shadeLevel(geo, beyond(gs, top), sc.hits, -d, beta_next, level + 1, ls, rng, nrays,
                         level == 0 ? bsdfShare(chain, geo, portions, wsum, p, nb, nbm, dr.pdf, d) : 1.0f);
     }
     return L;
@@ -3005,7 +3025,7 @@ class Tracer {
         L += beta_k * float(sc.escaped * share) *
              emitterToward(origin, d, float(nbm * p.weight / wsum) * dr.pdf, nl_eff, ls.guides, nrays);
       if (bounce && !sc.hits.empty())
-        L += shadeLevel(geo, top, sc.hits, -d, beta_k, 1, ls, rng, nrays,
+        L += shadeLevel(geo, beyond(gs, top), sc.hits, -d, beta_k, 1, ls, rng, nrays,
                         bsdfShare(chain, geo, portions, wsum, p, nm, nbm, dr.pdf, d), true);
     }
     return L;
@@ -3058,7 +3078,7 @@ class Tracer {
       const double density = jointDensity(p.weight, wsum, wf, nbm, pdf, c, d);
       const Rgb beta_k = beta * f * float(double(wi.z) / density);
       if (!isFinite(beta_k) || maxComponent(beta_k) <= 0) continue;
-      L += shadeLevel(geo, top, sc.hits, -d, beta_k, 1, ls, rng, nrays, 1.0f, true);
+      L += shadeLevel(geo, beyond(gs, top), sc.hits, -d, beta_k, 1, ls, rng, nrays, 1.0f, true);
     }
     return L;
   }
@@ -3166,6 +3186,8 @@ class Tracer {
     const size_t layer = z < 0 ? size_t(s_.layer_stack.layerAtDepth(-double(z))) : 0;
     return layer == 0 || layer >= s_.layer_materials.size() ? top : s_.layer_materials[layer];
   }
+  // The top material of the facets that a footprint's bounced directions meet (GrooveSet::beyond).
+  static const Material& beyond(const GrooveSet& gs, const Material& top) { return gs.beyond ? *gs.beyond : top; }
   const Material& facetMaterial(const GrooveSet& gs, int layer, const Material& top) const {
     if (gs.one_material || layer <= 0 || size_t(layer) >= s_.layer_materials.size()) return top;
     return s_.layer_materials[size_t(layer)];

@@ -918,6 +918,49 @@ bool passParts(const Groove& a, const Groove& b, std::vector<Groove>& parts) {
   return passPieces(&a, 1, &b, 1, parts);
 }
 
+namespace {
+
+// (Pieces of one pass share its line: direction and offset.)
+bool piecesOnOneLine(const Groove* g, size_t n) {
+  for (size_t k = 1; k < n; ++k)
+    if (!(g[k].tdir.x == g[0].tdir.x && g[k].tdir.y == g[0].tdir.y && g[k].bdir.x == g[0].bdir.x &&
+          g[k].bdir.y == g[0].bdir.y && g[k].b0 == g[0].b0))
+      return false;
+  return true;
+}
+
+// Each piece of g[0..n) over each of the `nw` domains given by wedge[2 i] and wedge[2 i + 1] (none:
+// the whole plane), within its stretch of the line: tdir . p between the cuts, in the pieces'
+// order along it. Appended to parts.
+void appendStretches(const Groove* g, size_t n, const HalfPlane* wedge, size_t nw, std::vector<Groove>& parts) {
+  thread_local std::vector<size_t> order;
+  order.resize(n);
+  for (size_t k = 0; k < n; ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t i, size_t j) { return g[i].t_lo - g[i].t0 < g[j].t_lo - g[j].t0; });
+  auto cut = [&](size_t k) {  // between the k-th and (k + 1)-th pieces, as tdir . p
+    const Groove &p = g[order[k]], &q = g[order[k + 1]];
+    return 0.5 * ((p.t_hi - p.t0) + (q.t_lo - q.t0));
+  };
+  for (size_t k = 0; k < n; ++k) {
+    const Groove& piece = g[order[k]];
+    for (size_t w = 0; w < std::max<size_t>(nw, 1); ++w) {
+      Groove q = piece;
+      q.parts = nullptr;
+      q.n_dom = 0;
+      if (nw > 0) {
+        q.dom[q.n_dom++] = wedge[2 * w];
+        q.dom[q.n_dom++] = wedge[2 * w + 1];
+      }
+      if (k > 0) q.dom[q.n_dom++] = {piece.tdir * -1.0, cut(k - 1)};  // tdir . p >= the cut before
+      if (k + 1 < n) q.dom[q.n_dom++] = {piece.tdir, -cut(k)};        // tdir . p <= the cut after
+      parts.push_back(q);
+    }
+  }
+}
+
+}  // namespace
+
 bool passPieces(const Groove* a, size_t na, const Groove* b, size_t nb, std::vector<Groove>& parts) {
   parts.clear();
   if (na == 0 || nb == 0) return false;
@@ -926,44 +969,21 @@ bool passPieces(const Groove* a, size_t na, const Groove* b, size_t nb, std::vec
   // One of them zero everywhere: the passes lie on one line (a path going back over itself), and
   // the four wedges would not tile the plane.
   if (zero(u) || zero(v)) return false;
-  // (Pieces of one pass share its line: direction and offset.)
-  auto oneLine = [](const Groove* g, size_t n) {
-    for (size_t k = 1; k < n; ++k)
-      if (!(g[k].tdir.x == g[0].tdir.x && g[k].tdir.y == g[0].tdir.y && g[k].bdir.x == g[0].bdir.x &&
-            g[k].bdir.y == g[0].bdir.y && g[k].b0 == g[0].b0))
-        return false;
-    return true;
-  };
-  if (!oneLine(a, na) || !oneLine(b, nb)) return false;
+  if (!piecesOnOneLine(a, na) || !piecesOnOneLine(b, nb)) return false;
   const HalfPlane nu = flip(u), nv = flip(v);
-  thread_local std::vector<size_t> order;
-  // Each piece of pass g over each of its wedges (h1, h2 and h3, h4), within its stretch of the
-  // line: tdir . p between the cuts, in the pieces' order along it.
-  auto pass = [&](const Groove* g, size_t n, HalfPlane h1, HalfPlane h2, HalfPlane h3, HalfPlane h4) {
-    order.resize(n);
-    for (size_t k = 0; k < n; ++k) order[k] = k;
-    std::stable_sort(order.begin(), order.end(),
-                     [&](size_t i, size_t j) { return g[i].t_lo - g[i].t0 < g[j].t_lo - g[j].t0; });
-    auto cut = [&](size_t k) {  // between the k-th and (k + 1)-th pieces, as tdir . p
-      const Groove &p = g[order[k]], &q = g[order[k + 1]];
-      return 0.5 * ((p.t_hi - p.t0) + (q.t_lo - q.t0));
-    };
-    for (size_t k = 0; k < n; ++k) {
-      const Groove& piece = g[order[k]];
-      for (const auto& w : {std::make_pair(h1, h2), std::make_pair(h3, h4)}) {
-        Groove q = piece;
-        q.parts = nullptr;
-        q.dom[0] = w.first;
-        q.dom[1] = w.second;
-        q.n_dom = 2;
-        if (k > 0) q.dom[q.n_dom++] = {piece.tdir * -1.0, cut(k - 1)};  // tdir . p >= the cut before
-        if (k + 1 < n) q.dom[q.n_dom++] = {piece.tdir, -cut(k)};        // tdir . p <= the cut after
-        parts.push_back(q);
-      }
-    }
-  };
-  pass(a, na, u, nv, nu, v);  // u <= 0 <= v, and v <= 0 <= u
-  pass(b, nb, nu, nv, u, v);  // u, v >= 0, and u, v <= 0
+  const HalfPlane wa[4] = {u, nv, nu, v};  // u <= 0 <= v, and v <= 0 <= u
+  const HalfPlane wb[4] = {nu, nv, u, v};  // u, v >= 0, and u, v <= 0
+  appendStretches(a, na, wa, 2, parts);
+  appendStretches(b, nb, wb, 2, parts);
+  return true;
+}
+
+bool pieceParts(const Groove* g, size_t n, std::vector<Groove>& parts) {
+  parts.clear();
+  if (n == 0 || !piecesOnOneLine(g, n)) return false;
+  for (size_t k = 0; k < n; ++k)
+    if (g[k].parts) return false;
+  appendStretches(g, n, nullptr, 0, parts);
   return true;
 }
 

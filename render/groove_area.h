@@ -214,6 +214,17 @@ bool passParts(const Groove& a, const Groove& b, std::vector<Groove>& out_parts)
 // or where a pass has no pieces or a piece's line is not its pass's first piece's.
 bool passPieces(const Groove* a, size_t na, const Groove* b, size_t nb, std::vector<Groove>& out_parts);
 
+// One groove in pieces along its line (g[0..n), in any order, n >= 1: scaleSegments' pieces of a
+// single pass) as one groove of parts: each piece holds over its stretch of the line, as in
+// passPieces, the first and last unbounded beyond their far ends, so the parts tile the plane.
+// The surface is the pieces' composite, but the groove counts as one against
+// Surface::kMaxGrooves and takes one plane in each cell, as the whole groove does. (Entered as
+// separate grooves, six scratches each in three pieces passed that cap where the whole grooves
+// did not, and the surface was built with the whole grooves instead: the fuzzer's c56_1.) False
+// (nothing appended) where n is 0, a piece is itself of parts, or a piece's line is not the first
+// piece's.
+bool pieceParts(const Groove* g, size_t n, std::vector<Groove>& out_parts);
+
 // Whether the centre lines of grooves a and b (each its line b = 0 over [t_lo, t_hi]; not parts)
 // come within w of each other inside the disc of radius r about the origin: where two passes of one
 // path, each of half-width w / 2 at most, do not, their grooves do not overlap there, and their

@@ -2139,6 +2139,22 @@ class Tracer {
         break;
       }
     }
+    // A groove left in several pieces (scaleSegments) enters the pieces' surface as one groove of
+    // parts (ga::pieceParts), so that it counts as one groove against the surface's cap of
+    // grooves, as it does whole. (Six scratches of three pieces each, 18 grooves, passed that cap
+    // of 16 where the six whole did not, so the region took them whole, their fading ends at full
+    // depth: the clusters fuzzer's c56_1, docs/grooves.md, "Pieces count as one groove".)
+    thread_local std::vector<std::vector<ga::Groove>> piece_parts;
+    if (piece_parts.size() < grooves.size()) piece_parts.resize(grooves.size());  // (no reallocation below)
+    for (size_t i = 0, np = 0; i < grooves.size(); ++i) {
+      const size_t n = seg_at[i + 1] - seg_at[i];
+      if (n < 2 || !ga::pieceParts(&segs[seg_at[i]], n, piece_parts[np])) continue;
+      ga::Groove one = segs[seg_at[i]];
+      one.parts = &piece_parts[np++];
+      segs.erase(segs.begin() + long(seg_at[i]) + 1, segs.begin() + long(seg_at[i + 1]));
+      for (size_t k = i + 1; k < seg_at.size(); ++k) seg_at[k] -= n - 1;
+      segs[seg_at[i]] = one;
+    }
     if (grooves.empty()) return false;
     // The region whose surface can be seen, or can hide or shadow what is seen (§4.2.1): the
     // footprint's box enlarged by `enlarge`. Where its pieces pass the cap (many grooves close

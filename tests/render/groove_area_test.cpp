@@ -1375,6 +1375,77 @@ TEST(GrooveArea, APathsTwoPassesInPiecesEachHoldWhereTheyAreTheNearer) {
   EXPECT_TRUE(parts.empty());
 }
 
+// One groove in pieces along its line (scaleSegments, in a force fade) is one groove of parts
+// (pieceParts): six grooves through one spot, each in three pieces of scale 0.6, 1 and 1.4 (given
+// shuffled), give 18 grooves as pieces, past Surface::kMaxGrooves, and six as parts, which build
+// with every point at the pieces' composite height, as five grooves' 15 pieces entered one by one
+// do. Pieces off their line, none, or a piece of parts: refused.
+TEST(GrooveArea, AGrooveInPiecesIsOneGrooveOfParts) {
+  std::vector<Vec2d> scaled[3];
+  const double scale[3] = {0.6, 1.0, 1.4};
+  for (int k = 0; k < 3; ++k)
+    for (const Vec2d& q : kProfile) scaled[k].push_back(q * scale[k]);
+  auto pieces = [&](Vec2d t, double b0, int id) {
+    std::vector<Groove> out;
+    const double cuts[4] = {-1e30, -0.04, 0.05, 1e30};
+    for (int k : {1, 2, 0}) {
+      Groove g = along(t, b0, id);
+      g.t0 = 0.25 * k;  // each piece its own origin along the line
+      g.t_lo = cuts[k] + 0.25 * k;
+      g.t_hi = cuts[k + 1] + 0.25 * k;
+      g.pts = &scaled[k];
+      out.push_back(g);
+    }
+    return out;
+  };
+  std::vector<std::vector<Groove>> each;
+  for (int i = 0; i < 6; ++i) each.push_back(pieces(dirOf(7 + 31 * i), 0.006 * (i - 2.5), i));
+  std::vector<std::vector<Groove>> parts(each.size());
+  std::vector<Groove> as_parts, as_pieces;
+  for (size_t i = 0; i < each.size(); ++i) {
+    ASSERT_TRUE(pieceParts(each[i].data(), each[i].size(), parts[i]));
+    ASSERT_EQ(parts[i].size(), 3u);
+    as_parts.push_back(ofParts(parts[i], int(i)));
+    as_pieces.insert(as_pieces.end(), each[i].begin(), each[i].end());
+  }
+  static_assert(3 * 6 > Surface::kMaxGrooves && 3 * 5 <= Surface::kMaxGrooves, "the test needs the cap between");
+  const Poly region = rect(-0.15, -0.15, 0.15, 0.15);
+  Surface s, by_pieces;
+  EXPECT_FALSE(by_pieces.build(region, as_pieces, Surface::kMaxPiecesClose));
+  ASSERT_TRUE(s.build(region, as_parts, Surface::kMaxPiecesClose));
+  double worst = 0;
+  for (int j = 0; j < 80; ++j)
+    for (int i = 0; i < 80; ++i) {
+      const Vec2d p(-0.14 + 0.28 * (i + 0.37) / 80, -0.14 + 0.28 * (j + 0.61) / 80);
+      const int k = pieceAt(s, p);
+      ASSERT_GE(k, 0) << p.x << ", " << p.y;
+      worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - composite(as_pieces, p)));
+    }
+  std::printf("[          ] six grooves of three pieces: %zu pieces, height off by at most %.2e mm\n",
+              s.pieces().size(), worst);
+  EXPECT_LT(worst, 1e-9);
+  // Five grooves: the pieces one by one and the grooves of parts give the same surface heights.
+  as_parts.pop_back();
+  as_pieces.resize(15);
+  Surface five_parts, five_pieces;
+  ASSERT_TRUE(five_parts.build(region, as_parts, Surface::kMaxPiecesClose));
+  ASSERT_TRUE(five_pieces.build(region, as_pieces, Surface::kMaxPiecesClose));
+  double apart = 0;
+  for (int j = 0; j < 50; ++j)
+    for (int i = 0; i < 50; ++i) {
+      const Vec2d p(-0.14 + 0.28 * (i + 0.29) / 50, -0.14 + 0.28 * (j + 0.53) / 50);
+      apart = std::max(apart, std::fabs(five_parts.heightAt(p) - five_pieces.heightAt(p)));
+    }
+  EXPECT_LT(apart, 1e-12);
+  std::vector<Groove> out;
+  std::vector<Groove> off = each[0];
+  off[2].b0 += 1e-3;
+  EXPECT_FALSE(pieceParts(off.data(), off.size(), out));
+  EXPECT_FALSE(pieceParts(each[0].data(), 0, out));
+  EXPECT_FALSE(pieceParts(&as_parts[0], 1, out));
+  EXPECT_TRUE(out.empty());
+}
+
 // centreLinesWithin (the renderer's test for whether two passes of one path need one partition by
 // nearness or can be composited): by hand, then against the least distance between points spaced
 // 5 * 10^-4 mm along both centre lines within the disc, for random lines, ranges and widths.

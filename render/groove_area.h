@@ -273,7 +273,12 @@ class Surface {
   // The renderer's cap in close views (since 2026-11-30; the integrator's buildArea says when):
   // enough for a loop of bends crossed by a polyline seen at 1 degree (about 3,800 pieces at the
   // full reach), whose light from beyond a quarter of the reach was lost at the ordinary cap.
-  static constexpr size_t kMaxPiecesClose = 4000;
+  // 16,000 since 2026-12-02 (4,000 before): twelve deep scratches crossing in a cluster seen at
+  // 2 degrees (the clusters fuzzer's c56_1) need 8,000 to 16,000 at the full reach, and at half
+  // of it lost the light their walls pass between them: 2.60% of pixels >= 10, now 0.17%, in half
+  // the time (a refused build costs about as much as a finished one). docs/grooves.md, "Close
+  // views".
+  static constexpr size_t kMaxPiecesClose = 16000;
   // At most this many grooves per surface (the callers keep the nearest past it). 16 since
   // 2026-11-30 (8 before; docs/grooves.md, "Sixteen grooves").
   static constexpr size_t kMaxGrooves = 16;

@@ -182,6 +182,84 @@ LAYOUTS = {
     hardness_hv: 20
     region: [0.495, 0.495, 0.505, 0.505]
 """,
+    # Six scratches 1.4 mm long with fades of 0.3 mm crossing near one spot, the view's centre
+    # (the clusters fuzzer's c56_1, its first group placed by hand): seen at 1 degree from 15 mm
+    # the grooves' fading ends reach the footprints' regions in three pieces each (the integrator's
+    # scaleSegments).
+    "fades6": """
+  - type: scratch
+    pattern: path
+    center: [0.507808, 0.491236]
+    path_mm: [0.5323, -0.4546, -0.5323, 0.4546]
+    force_kg: 3.63
+    hardness_hv: 20
+    fade_mm: 0.3
+  - type: scratch
+    pattern: path
+    center: [0.490614, 0.489240]
+    path_mm: [0.6692, -0.2054, -0.6692, 0.2054]
+    force_kg: 3.63
+    hardness_hv: 20
+    fade_mm: 0.3
+  - type: scratch
+    pattern: path
+    center: [0.475012, 0.506199]
+    path_mm: [0.5675, -0.4098, -0.5675, 0.4098]
+    force_kg: 3.63
+    hardness_hv: 20
+    fade_mm: 0.3
+  - type: scratch
+    pattern: path
+    center: [0.486870, 0.502764]
+    path_mm: [0.6957, -0.0772, -0.6957, 0.0772]
+    force_kg: 3.63
+    hardness_hv: 20
+    fade_mm: 0.3
+  - type: scratch
+    pattern: path
+    center: [0.506725, 0.482049]
+    path_mm: [0.1929, -0.6729, -0.1929, 0.6729]
+    force_kg: 3.63
+    hardness_hv: 20
+    fade_mm: 0.3
+  - type: scratch
+    pattern: path
+    center: [0.489073, 0.521644]
+    path_mm: [-0.6281, -0.3089, 0.6281, 0.3089]
+    force_kg: 3.63
+    hardness_hv: 20
+    fade_mm: 0.3
+""",
+    # The clusters fuzzer's c56_1 (seed 56, 2026-12-02): twelve deep scratches in three groups
+    # crossing in a cluster about 1 mm across, the short ones with 0.3 mm fades. Seen at 1 degree
+    # (44 micrometres per pixel over 24 pixels) a crossing's polygons at the full reach take 8,000
+    # to 16,000 pieces.
+    "cluster56": """
+  - type: scratch
+    count: 6
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 1.4
+    force_kg: 3.63
+    hardness_hv: 20
+    region: [0.4809, 0.4843, 0.5256, 0.5289]
+    fade_mm: 0.30
+  - type: scratch
+    count: 1
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 5.8
+    force_kg: 1.38
+    hardness_hv: 60
+    region: [0.4792, 0.5004, 0.5020, 0.5233]
+    curvature_per_mm: {uniform: [0.02, 0.2]}
+    fade_mm: 0.00
+  - type: scratch
+    count: 5
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 4.9
+    force_kg: 3.06
+    hardness_hv: 30
+    region: [0.4725, 0.4933, 0.4870, 0.5078]
+""",
     # Thirty concentric wash-swirl arcs over most of the view (bench only: the cut mesh has 2.5
     # million triangles, and the time to build it is part of what the bench measures).
     "swirls": """
@@ -663,7 +741,7 @@ MATERIALS["flat_flakes"] = MATERIALS["flakes"].replace("sparkle: 1", "sparkle: 1
 
 
 def config(layout, light, mode, spp, resolution=96, seed=11, noise_seed=0, roughness=0.15, fov_deg=5, part="plate",
-           material="aluminium", png16=False, scratched=True, count=None, distance_mm=60, cell_mm=None):
+           material="aluminium", png16=False, scratched=True, count=None, distance_mm=60, cell_mm=None, max_bounces=4):
     """noise_seed: 0 for the renders under test; references use another value so that their noise
     is independent of theirs (the same seed would give geometry at N spp the first N samples of the
     reference's). roughness: the aluminium's. png16: 16-bit PNGs, so that a comparison is not
@@ -673,7 +751,8 @@ def config(layout, light, mode, spp, resolution=96, seed=11, noise_seed=0, rough
     distance_mm: the camera's height over the plate (plate only; the field of view is at least 1 degree: 20 mm
     sees a third of a millimetre across). cell_mm: the explicit geometry's finest cells
     (render.geometry_cell_mm; other modes leave it out), for views so close that the automatic cell
-    spans pixels."""
+    spans pixels. max_bounces: the path length in bounces (1: direct light only, which shows the
+    surfaces' shapes and shadows without the light between walls)."""
     text = LAYOUTS[layout]
     if count is not None:
         import re
@@ -688,8 +767,9 @@ part: %s
 material: %s
 lights:%s
 camera: %s
-render: {resolution: [%d, %d], spp: %d, max_bounces: 4, scratches: %s, noise_seed: %d%s}
+render: {resolution: [%d, %d], spp: %d, max_bounces: %d, scratches: %s, noise_seed: %d%s}
 defects:%s""" % (layout, light, seed, PARTS[part], mat, LIGHTS[light], _camera(part, fov_deg, distance_mm), resolution, resolution, spp,
+                 max_bounces,
                  mode, noise_seed, (", png: 16" if png16 else "") +
                  (", geometry_cell_mm: %g" % cell_mm if cell_mm and mode == "geometry" else ""),
                  " []\n" if not scratched else text if part == "plate" else _bowed_regions(text))

@@ -2184,8 +2184,9 @@ class Tracer {
     bool tried = false;  // a build was refused at the caps
     thread_local std::vector<size_t> order;  // the grooves within the last reach tried
     // Each reach, from the largest, first with the grooves in pieces along their paths where their
-    // scale is far from linear (scaleSegments), then, where that passed the caps (the pieces count
-    // as grooves), with every groove whole, as before 2026-11-28. The reach comes first: the pieces
+    // scale is far from linear (scaleSegments), then, where that passed the caps (a groove's pieces
+    // add pieces of the surface, not grooves: they are one groove of parts), with every groove
+    // whole, as before 2026-11-28. The reach comes first: the pieces
     // refine a groove's depth along its path, while a smaller region loses the walls beyond it
     // that shadow the footprint or send it light. The clusters fuzzer's c52_5 (17 scratches
     // crossing near the view's centre, ring light, 2 degrees) took the pieces at a quarter of the

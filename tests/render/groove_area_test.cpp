@@ -1413,14 +1413,18 @@ TEST(GrooveArea, AGrooveInPiecesIsOneGrooveOfParts) {
   Surface s, by_pieces;
   EXPECT_FALSE(by_pieces.build(region, as_pieces, Surface::kMaxPiecesClose));
   ASSERT_TRUE(s.build(region, as_parts, Surface::kMaxPiecesClose));
-  double worst = 0;
-  for (int j = 0; j < 80; ++j)
-    for (int i = 0; i < 80; ++i) {
-      const Vec2d p(-0.14 + 0.28 * (i + 0.37) / 80, -0.14 + 0.28 * (j + 0.61) / 80);
-      const int k = pieceAt(s, p);
-      ASSERT_GE(k, 0) << p.x << ", " << p.y;
-      worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - composite(as_pieces, p)));
-    }
+  // The largest of f(p) over an n x n grid inside the region.
+  auto most = [](int n, double fx, double fy, auto f) {
+    double m = 0;
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) m = std::max(m, f(Vec2d(-0.14 + 0.28 * (i + fx) / n, -0.14 + 0.28 * (j + fy) / n)));
+    return m;
+  };
+  const double worst = most(80, 0.37, 0.61, [&](Vec2d p) {
+    const int k = pieceAt(s, p);
+    EXPECT_GE(k, 0) << p.x << ", " << p.y;
+    return k < 0 ? 1.0 : std::fabs(s.pieces()[size_t(k)].plane.at(p) - composite(as_pieces, p));
+  });
   std::printf("[          ] six grooves of three pieces: %zu pieces, height off by at most %.2e mm\n",
               s.pieces().size(), worst);
   EXPECT_LT(worst, 1e-9);
@@ -1430,12 +1434,8 @@ TEST(GrooveArea, AGrooveInPiecesIsOneGrooveOfParts) {
   Surface five_parts, five_pieces;
   ASSERT_TRUE(five_parts.build(region, as_parts, Surface::kMaxPiecesClose));
   ASSERT_TRUE(five_pieces.build(region, as_pieces, Surface::kMaxPiecesClose));
-  double apart = 0;
-  for (int j = 0; j < 50; ++j)
-    for (int i = 0; i < 50; ++i) {
-      const Vec2d p(-0.14 + 0.28 * (i + 0.29) / 50, -0.14 + 0.28 * (j + 0.53) / 50);
-      apart = std::max(apart, std::fabs(five_parts.heightAt(p) - five_pieces.heightAt(p)));
-    }
+  const double apart =
+      most(50, 0.29, 0.53, [&](Vec2d p) { return std::fabs(five_parts.heightAt(p) - five_pieces.heightAt(p)); });
   EXPECT_LT(apart, 1e-12);
   std::vector<Groove> out;
   std::vector<Groove> off = each[0];

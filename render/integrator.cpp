@@ -1,6 +1,3 @@
-#include <type_traits>
-#include <cstdio>
-#include <cstdlib>
 #include "render/integrator.h"
 
 #include <atomic>
@@ -61,7 +58,6 @@ struct DiffRay {
 };
 
 // A ray with no footprint (zero differentials): the rays a groove footprint sends on.
-thread_local bool g_dbg = false;
 DiffRay bareRay(Vec3f o, Vec3f d) {
   DiffRay r;
   r.o = o;
@@ -2089,27 +2085,7 @@ class Tracer {
         const Profile& rp = ng.sc->referenceProfile();
         const double h_ref = std::max(rp.depth(), rp.peakHeight());
         const float tol_abs = h_ref > 0 ? float(2 * fp_r / (double(tan_light_max_) * h_ref)) : 1e30f;
-        size_t nadd = scaleSegments(ng, k, g, along_uv * float(M_SQRT2), mm, tol_abs, profiles, segs);
-        if (g_dbg) {
-          fprintf(stderr, "GROOVE i=%zu sc=%p s=%.4f len=%.4f k=%.3f tol_abs=%.3f reach=%.4f  t0=%.4f b0=%.4f rho=%.3f [%.4f,%.4f] tdir=(%.3f,%.3f)\n", i, (const void*)ng.sc, ng.pp.s, ng.sc->path().length(), k, tol_abs, along_uv * M_SQRT2 * mm, g.t0, g.b0, g.rho, g.t_lo, g.t_hi, g.tdir.x, g.tdir.y);
-          for (size_t q = segs.size() - nadd; q < segs.size(); ++q) { double dmin = 0; for (auto& v : *segs[q].pts) dmin = std::min(dmin, v.y); fprintf(stderr, "   seg t0=%.4f rho=%.3f [%.4f,%.4f] depth=%.4f\n", segs[q].t0, segs[q].rho, segs[q].t_lo, segs[q].t_hi, dmin); }
-          for (int q = 0; q <= 14; ++q) { double ss = ng.pp.s + (q - 7) * 0.05 / mm; if (ss >= 0 && ss <= ng.sc->path().length()) fprintf(stderr, "   scaleAt(%+.2f mm)=%.3f", (q - 7) * 0.05, ng.sc->scaleAt(float(ss))); }
-          fprintf(stderr, "\n");
-          const Vec3f dw = normalize(Vec3f(0.089f, 0.964f, 0.252f));
-          for (int q = 1; q <= 9; ++q) { float t = 0.05f * q; Vec2f uv = sp.uv + Vec2f(dw.x * t, dw.y * t) / float(mm); fprintf(stderr, "   h(t=%.2f)=%.5f", t, ng.sc->height(uv) * float(mm)); }
-          fprintf(stderr, "\n");
-          {
-            ga::Surface one;
-            std::vector<ga::Groove> gg(segs.end() - long(nadd), segs.end());
-            for (auto& x : gg) x.id = 0;
-            ga::Poly reg; reg.push({-1, -1}); reg.push({1, -1}); reg.push({1, 1}); reg.push({-1, 1});
-            bool ok = one.build(reg, gg, 40000);
-            const Vec2d dl(dot(dw, gs.T), dot(dw, gs.B));
-            fprintf(stderr, "  built=%d", int(ok));
-            for (int q = 1; q <= 9; ++q) { double t = 0.05 * q; fprintf(stderr, "   g(t=%.2f)=%.5f", t, one.heightAt(Vec2d(t * dl.x, t * dl.y))); }
-            fprintf(stderr, "\n");
-          }
-        }
+        scaleSegments(ng, k, g, along_uv * float(M_SQRT2), mm, tol_abs, profiles, segs);
       }
       seg_at.push_back(segs.size());
     }
@@ -2582,23 +2558,6 @@ class Tracer {
       p.weight /= wsum;
       p.density /= wsum;
     }
-    if (g_dbg) {
-      fprintf(stderr, "AREA pieces=%zu portions=%zu wsum=%g shared=%d org=(%g,%g) F=(%g,%g,%g) T=(%g,%g,%g)\n", gs.surface.pieces().size(), portions.size(), wsum, int(gs.shared), gs.org.x, gs.org.y, gs.F.x, gs.F.y, gs.F.z, gs.T.x, gs.T.y, gs.T.z);
-      for (const auto& p : portions) {
-        const auto& P = gs.surface.pieces()[size_t(p.piece)];
-        Vec3d n = P.plane.normal();
-        double litm = 0; for (size_t li = 0; li < light.size(); ++li) litm += gs.surface.litFraction(p, light[li], li);
-        fprintf(stderr, "  piece %d w=%.4f n=(%.3f,%.3f,%.3f) z0=%.5f layer=%d lit=%.3f", p.piece, p.weight, n.x, n.y, n.z, P.plane.z0, P.layer, litm / double(light.size()));
-        Vec2d c; if (groove::area::centroid(p.frags, c)) fprintf(stderr, " c=(%.5f,%.5f) z=%.5f", c.x, c.y, P.plane.at(c));
-        fprintf(stderr, "\n");
-        for (size_t li = 0; li < light.size(); li += 3) {
-          auto h = gs.surface.scatter(p, light[li]);
-          double hw = 0; for (auto& q : h.hits) hw += q.weight;
-          fprintf(stderr, "    l%zu lit=%.3f esc=%.3f hits=%zu hw=%.3f pw=%.3f\n", li, gs.surface.litFraction(p, light[li], li), h.escaped, h.hits.size(), hw, p.weight);
-        }
-      }
-      fprintf(stderr, "  light0=(%.3f,%.3f,%.3f) n=%zu\n", light.empty()?0:light[0].x, light.empty()?0:light[0].y, light.empty()?0:light[0].z, light.size());
-    }
     return shadeLevel(geo, top, portions, wo_w, Rgb(1.0f), 0, ls, rng, nrays);
   }
 
@@ -3061,22 +3020,8 @@ class Tracer {
                emitterToward(origin, d, float(nbm * p.weight / wsum) * dr.pdf, nl_eff, ls.guides, nrays);
         continue;
       }
-      if (g_dbg && level == 0) fprintf(stderr, "    bsdf j=%d d=(%.3f,%.3f,%.3f) esc=%.3f hits=%zu beta=%g\n", j, d.x, d.y, d.z, sc.escaped, sc.hits.size(), beta_next.x);
-      if constexpr (std::is_same_v<Geometry, AreaGeometry>) if (g_dbg && level == 0 && sc.escaped > 0.5) {
-        const Vec3d dl = geo.local(d);
-        Vec2d c; groove::area::centroid(p.frags, c);
-        const auto& P = gs.surface.pieces()[size_t(p.piece)];
-        double z0 = P.plane.at(c);
-        double worst = -1e9, wt = 0;
-        for (int k = 1; k <= 400; ++k) { double t = k * 0.0025; Vec2d q(c.x + t * dl.x, c.y + t * dl.y); double gap = gs.surface.heightAt(q) - (z0 + t * dl.z); if (gap > worst) worst = gap, wt = t; }
-        for (int k = 20; k <= 400; k += 20) { double t = k * 0.0025; Vec2d q(c.x + t * dl.x, c.y + t * dl.y); fprintf(stderr, "        t=%.3f q=(%.4f,%.4f) ray z=%.5f h=%.5f\n", t, q.x, q.y, z0 + t * dl.z, gs.surface.heightAt(q)); }
-        fprintf(stderr, "      march: worst gap %.5f at t=%.4f (h at end %.5f)\n", worst, wt, gs.surface.heightAt(Vec2d(c.x + wt*dl.x, c.y + wt*dl.y)));
-      }
       if (sc.escaped > 0 && dot(d, gs.W) > 0) {
         const DiffRay r = bareRay(origin, d);
-        if (g_dbg) { Rgb t = continuePath(r, beta_next * float(sc.escaped), float(nbm * p.weight / wsum) * dr.pdf, false, origin,
-                          1 + level, rng, nrays, nl_eff, nl_env, direct_scale * float(nb) / nbm, nullptr, 0, nullptr,
-                          ls.guides); fprintf(stderr, "      cont -> %g\n", t.x); }
         L += continuePath(r, beta_next * float(sc.escaped), float(nbm * p.weight / wsum) * dr.pdf, false, origin,
                           1 + level, rng, nrays, nl_eff, nl_env, direct_scale * float(nb) / nbm, nullptr, 0, nullptr,
                           ls.guides);
@@ -3126,7 +3071,6 @@ class Tracer {
       if (sc.escaped > 0 && dot(d, gs.W) > 0)
         L += beta_k * float(sc.escaped * share) *
              emitterToward(origin, d, float(nbm * p.weight / wsum) * dr.pdf, nl_eff, ls.guides, nrays);
-      if (g_dbg) fprintf(stderr, "    lobe j=%d d=(%.3f,%.3f,%.3f) esc=%.3f L=%g\n", j, d.x, d.y, d.z, sc.escaped, L.x);
       if (bounce && !sc.hits.empty())
         L += shadeLevel(geo, beyond(gs, top), sc.hits, -d, beta_k, 1, ls, rng, nrays,
                         bsdfShare(chain, geo, portions, wsum, p, nm, nbm, dr.pdf, d), true);
@@ -3435,26 +3379,6 @@ std::vector<Material> layerMaterials(const Material& part, const LayerStack& sta
 RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
   const int W = scene.camera.K.width, H = scene.camera.K.height;
   RenderFrame out;
-  if (const char* e = getenv("DG_PROBE")) {
-    FILE* f = fopen(e, "r");
-    float x, y;
-    while (f && fscanf(f, "%f %f", &x, &y) == 2) {
-      Hit h0 = intersect(scene.part->scene(), Vec3f(x, y, 1.0f), Vec3f(0.0f, 0.0f, -1.0f), 0.0f, kInf);
-      fprintf(stderr, "PROBE %.5f %.5f %.5f\n", x, y, 1.0f - h0.t);
-    }
-    if (f) fclose(f);
-  }
-  if (const char* e = getenv("DG_RAY")) {
-    float x, y, dx, dy, dz;
-    if (sscanf(e, "%f,%f,%f,%f,%f", &x, &y, &dx, &dy, &dz) == 5) {
-      Hit h0 = intersect(scene.part->scene(), Vec3f(x, y, 1.0f), Vec3f(0.0f, 0.0f, -1.0f), 0.0f, kInf);
-      float z = 1.0f - h0.t;
-      Vec3f d = normalize(Vec3f(dx, dy, dz));
-      Hit h = intersect(scene.part->scene(), Vec3f(x, y, z) + d * 1e-5f, d, 0.0f, kInf);
-      fprintf(stderr, "RAY surface z=%.5f; along d: hit=%d t=%.5f at (%.4f,%.4f,%.5f)\n", z, int(h.hit), h.t, x + d.x * h.t, y + d.y * h.t, z + d.z * h.t);
-      for (int k = 1; k <= 16; ++k) { float t = 0.05f * k; float px = x + d.x * t, py = y + d.y * t; Hit hk = intersect(scene.part->scene(), Vec3f(px, py, 1.0f), Vec3f(0.0f, 0.0f, -1.0f), 0.0f, kInf); fprintf(stderr, "   t=%.3f ray z=%.5f surf=%.5f\n", t, z + d.z * t, 1.0f - hk.t); }
-    }
-  }
   if (st.want_rgb) out.rgb = ImageF(W, H, 3);
   if (st.want_depth) out.depth = ImageF(W, H, 1);
   if (st.want_normals) out.normal = ImageF(W, H, 3);
@@ -3538,10 +3462,8 @@ RenderFrame render(const RenderScene& scene, const RenderSettings& st) {
             } else {
               r = cameraRay(gen, x - 0.5f + jx, y - 0.5f + jy);
             }
-            { static int dx = getenv("DG_X") ? atoi(getenv("DG_X")) : -1, dy = getenv("DG_Y") ? atoi(getenv("DG_Y")) : -1; g_dbg = (x == dx && y == dy); if (g_dbg) fprintf(stderr, "SAMPLE %d\n", s); }
             Rgb c = tracer.trace(r, rng, local_rays, st.spp > 1 ? &pads : nullptr, s,
                                  tracer.grooves_ ? &plate : nullptr);
-            if (g_dbg) fprintf(stderr, "  -> %g %g %g\n", c.x, c.y, c.z);
             if (isFinite(c)) sum += c;
           }
           float* o = out.rgb.at(x, y);

@@ -59,7 +59,7 @@ struct Placed {
   std::vector<Vec2d> pts;
   std::vector<int> layer;
   double lo = 0, hi = 0;
-  double offset = 0, rho = 0;  // PlacedProfile's
+  double offset = 0, rho = 0, turn = 0;  // PlacedProfile's
 };
 
 double lerpW(Vec2d a, Vec2d c, double b) {
@@ -327,6 +327,7 @@ Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
     p.hi = p.pts.back().x;
     p.offset = g.offset;
     p.rho = g.rho;
+    p.turn = g.turn;
     if (!(p.hi > p.lo)) continue;  // zero width: removes no material
     ps.push_back(std::move(p));
   }
@@ -433,15 +434,16 @@ Section merge(const std::vector<PlacedProfile>& grooves, double extent) {
       emit(out, src, {x, w}, layerSpanning(ps[active[win]], u), int(active[win]));
     }
   }
-  // The facets' slopes along t from the force fades of their profiles.
-  bool fades = false;
-  for (const Placed& p : ps) fades = fades || p.rho != 0;
-  if (fades) {
+  // The facets' slopes along t from the force fades and the turns of their profiles.
+  bool tilted = false;
+  for (const Placed& p : ps) tilted = tilted || p.rho != 0 || p.turn != 0;
+  if (tilted) {
     out.tilt.assign(out.facets(), 0.0);
     for (size_t k = 0; k < out.facets(); ++k)
       if (src[k] >= 0) {
         const Placed& p = ps[size_t(src[k])];
-        out.tilt[k] = -p.rho * dot(out.pts[k] - Vec2d(p.offset, 0.0), out.normal(k));
+        const Vec2d n = out.normal(k);
+        out.tilt[k] = -p.rho * dot(out.pts[k] - Vec2d(p.offset, 0.0), n) - p.turn * n.x;
       }
   }
   return out;

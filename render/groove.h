@@ -36,7 +36,9 @@ struct Section {
   // its 3-D normal is (tilt, normal(k)) in (t, b, w), normalised. A profile scaled by r(t) =
   // 1 + rho t about its centre line (b = offset, w = 0) moves each facet line by rho times its
   // distance from that centre per unit of t, so tilt = -rho (P - (offset, 0)).normal(k) for any
-  // point P of the facet (as the polygons' planes of render/groove_area.h have it).
+  // point P of the facet (as the polygons' planes of render/groove_area.h have it). A groove turned
+  // from t by an angle of tangent `turn` (PlacedProfile::turn) adds -turn normal(k).x: its height
+  // g(b cos a - t sin a) has the slope -g' sin a along t.
   std::vector<double> tilt;
   size_t facets() const { return pts.size() < 2 ? 0 : pts.size() - 1; }
   // Unit outward normal of facet k in (b, w): the facet direction turned +90 degrees,
@@ -57,6 +59,12 @@ struct PlacedProfile {
   // along the section's direction, so negated for a path that runs the other way). Gives its
   // facets their Section::tilt.
   double rho = 0;
+  // tan of the angle from the section's t to the groove's own direction (turned towards +b; the
+  // direction taken the section's way): grooves within the merging tolerance of parallel are
+  // placed as if parallel, but each facet keeps its own groove's normal, whose slope along t is
+  // -turn times its b component (Section::tilt). Under a bar light a wall turned by 2 degrees moves
+  // its mirror image of the bar by nearly 3 (docs/grooves.md, "Nearly parallel grooves").
+  double turn = 0;
 };
 
 // Concatenates the placed profiles in order of b and adds flat facets (layer 0) from -extent to

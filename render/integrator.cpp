@@ -2297,7 +2297,19 @@ class Tracer {
     return false;
   }
 
-  // The section of the grooves parallel to near[ref] (within 2 degrees), in its frame.
+  // tan of the angle from the section's direction T to a groove's (t_uv, taken T's way) on the
+  // surface, towards B (groove::PlacedProfile::turn). Below 1e-6 it is float noise of parallel
+  // paths and counts as 0, so that their sections keep no tilt.
+  static double turnFrom(const SurfacePoint& sp, Vec3f T, Vec3f B, Vec2f t_uv) {
+    const Vec3f t = sp.dpdu * t_uv.x + sp.dpdv * t_uv.y;
+    const double c = dot(t, T), s = dot(t, B);
+    if (!(c > 0)) return 0;
+    const double turn = s / c;
+    return std::fabs(turn) < 1e-6 ? 0.0 : turn;
+  }
+
+  // The section of the grooves parallel to near[ref] (within 2 degrees), in its frame. Each keeps
+  // its own direction's facet normals (turnFrom).
   bool buildSet(const SurfacePoint& sp, const std::vector<NearGroove>& near, size_t ref, float enlarge,
                 GrooveSet& gs) const {
     Vec2f t0 = near[ref].pp.tangent;
@@ -2343,6 +2355,7 @@ class Tracer {
       // A changing scale tilts the facets along the path (Section::tilt; the sign turns it to t0's
       // way).
       pl.rho = double(sign) * scaleSlope(ng, k, mm);
+      pl.turn = turnFrom(sp, gs.T, gs.B, ng.pp.tangent * sign);
       placed.push_back(pl);
       placed_sc.push_back(ng.sc);
       placed_whole.push_back(share >= 1.0f);

@@ -182,6 +182,32 @@ LAYOUTS = {
     hardness_hv: 20
     region: [0.495, 0.495, 0.505, 0.505]
 """,
+    # Two deep scratches 0.1 to 0.3 mm apart whose arcs bend opposite ways (the lines fuzzer's
+    # l58_6, its regions moved by (0.2, -0.05) mm so that its worst spot lies at the view's centre):
+    # the angle between them grows by 3 degrees per mm along them, so in a view 0.5 mm across they
+    # are merged as parallel (within 2 degrees) on one side and go to the polygons on the other.
+    "nearpar58": """
+  - type: scratch
+    count: 2
+    orientation_deg: 41
+    length_mm: 3.9
+    force_kg: 3.92
+    hardness_hv: 20
+    region: [0.4790, 0.4779, 0.4950, 0.4939]
+    curvature_per_mm: 0.027
+    fade_mm: 0.30
+    perturbation: 0.15
+  - type: scratch
+    count: 2
+    orientation_deg: 41
+    length_mm: 1.7
+    force_kg: 1.80
+    hardness_hv: 60
+    region: [0.5246, 0.4672, 0.5406, 0.4832]
+    curvature_per_mm: 0.111
+    fade_mm: 1.00
+    perturbation: 0.70
+""",
     # Six scratches 1.4 mm long with fades of 0.3 mm crossing near one spot, the view's centre
     # (the clusters fuzzer's c56_1, its first group placed by hand): seen at 1 degree from 15 mm
     # the grooves' fading ends reach the footprints' regions in three pieces each (the integrator's

@@ -889,5 +889,68 @@ TEST(Groove, MergeTiltsFacetsAsTheirFadingProfilesMove) {
   EXPECT_GT(checked, 1000);
 }
 
+// A groove turned from the section's t by an angle of tangent `turn` (merged with grooves within
+// 2 degrees of parallel) has its centre line at b = offset + turn t, so its facets slope along t
+// as they move across: tilt = -turn n_b. Checked as above, by merging the profiles at t = +-h
+// (each also scaled by its force fade, so that the two slopes add), and on one V-groove against
+// the exactly turned normal.
+TEST(Groove, MergeTiltsFacetsOfATurnedGrooveWithItsOwnNormal) {
+  const Prof v = vGroove(1, 1);
+  PlacedProfile pv{&v.pts, &v.layer, 0.3, false};
+  const double a = 2.0 * M_PI / 180;  // the merging tolerance
+  pv.turn = std::tan(a);
+  const Section sv = merge({pv}, 3);
+  ASSERT_EQ(sv.tilt.size(), sv.facets());
+  int walls = 0;
+  for (size_t k = 0; k < sv.facets(); ++k) {
+    const Vec2d n2 = sv.normal(k);
+    if (n2.x == 0) {
+      EXPECT_EQ(sv.tilt[k], 0.0) << k;  // the flat base keeps its normal
+      continue;
+    }
+    // The wall's normal in the groove's own frame, (n_b, n_w), turned by a about w: in (t, b, w)
+    // it is (-n_b sin a, n_b cos a, n_w).
+    const Vec3d exact(-n2.x * std::sin(a), n2.x * std::cos(a), n2.y);
+    Vec3d got(sv.tilt[k], n2.x, n2.y);
+    got = got / std::sqrt(dot(got, got));
+    EXPECT_LT(std::acos(std::min(1.0, dot(got, exact))), 5e-4) << k;  // second order in a
+    ++walls;
+  }
+  EXPECT_EQ(walls, 2);
+
+  Rand rnd(12);
+  const double h = 1e-6, extent = 2.5;
+  int checked = 0;
+  for (int c = 0; c < 200; ++c) {
+    const int g = rnd.integer(1, 3);
+    std::vector<Prof> ps, plus, minus;
+    std::vector<PlacedProfile> placed, at_plus, at_minus;
+    for (int i = 0; i < g; ++i) ps.push_back(randomProfile(rnd, rnd(0.3, 1.5)));
+    plus = minus = ps;
+    for (int i = 0; i < g; ++i) {
+      const double off = rnd(-1, 0.5), rho = rnd(0, 1) < 0.5 ? 0.0 : rnd(-2, 2), turn = rnd(-0.035, 0.035);
+      const bool mirrored = rnd(0, 1) < 0.3;
+      for (Vec2d& q : plus[size_t(i)].pts) q = q * (1 + rho * h);
+      for (Vec2d& q : minus[size_t(i)].pts) q = q * (1 - rho * h);
+      placed.push_back({&ps[size_t(i)].pts, &ps[size_t(i)].layer, off, mirrored});
+      placed.back().rho = rho;
+      placed.back().turn = turn;
+      at_plus.push_back({&plus[size_t(i)].pts, &plus[size_t(i)].layer, off + turn * h, mirrored});
+      at_minus.push_back({&minus[size_t(i)].pts, &minus[size_t(i)].layer, off - turn * h, mirrored});
+    }
+    const Section s = merge(placed, extent), sp = merge(at_plus, extent), sm = merge(at_minus, extent);
+    ASSERT_EQ(s.tilt.size(), s.facets());
+    for (size_t k = 0; k < s.facets(); ++k) {
+      const Vec2d p0 = s.pts[k], p1 = s.pts[k + 1];
+      if (!(p1.x - p0.x > 1e-3)) continue;  // vertical or too short to difference across
+      const double mid = 0.5 * (p0.x + p1.x);
+      const double dwdt = (heightAt(sp.pts, mid) - heightAt(sm.pts, mid)) / (2 * h);
+      EXPECT_NEAR(s.tilt[k], -s.normal(k).y * dwdt, 1e-5 * (1 + std::fabs(dwdt))) << "case " << c << " facet " << k;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 1000);
+}
+
 }  // namespace
 }  // namespace dg::groove

@@ -72,9 +72,21 @@ struct DefectShading {
     }
     cover = 1.0f - (1.0f - cover) * (1.0f - c);
   }
+  // A scratch point-sampled where the groove renderer does not integrate (DefectQuery::
+  // point_grooves): its height h (mm) and height gradient under the point. Scratches compose as
+  // the explicit geometry cuts them (scratchHeight in render/scratch_geometry.cpp): the lowest
+  // where one is below the base, else the highest, so where they overlap the surface takes one
+  // groove's slope, not the sum of them all. grooveGrad() is the slope of the one that holds.
+  void addGroove(float h, Vec2f grad) {
+    if (h < low_) low_ = h, low_grad_ = grad;
+    if (h > high_) high_ = h, high_grad_ = grad;
+  }
+  Vec2f grooveGrad() const { return low_ < 0 ? low_grad_ : high_ > 0 ? high_grad_ : Vec2f{0, 0}; }
 
  private:
   float strongest_ = 0.0f;
+  float low_ = 0, high_ = 0;
+  Vec2f low_grad_{0, 0}, high_grad_{0, 0};
 };
 
 class Defect {

@@ -1143,7 +1143,13 @@ void Scratch::shade(const DefectQuery& qy, DefectShading& out) const {
   slope = std::max(-5.67, std::min(5.67, slope));
   along = std::max(-5.67, std::min(5.67, along));
   Vec2f B(-q.tangent.y, q.tangent.x);  // W x T in the UV plane
-  out.height_grad += B * float(slope) + q.tangent * float(along);
+  const Vec2f grad = B * float(slope) + q.tangent * float(along);
+  // The normal-map baseline adds every scratch's slope, as a texture of summed normals does; the
+  // groove renderer's point samples take the composite surface's (DefectShading::addGroove).
+  if (bump_shading_)
+    out.height_grad += grad;
+  else
+    out.addGroove(k * float(ref_.heightAt(beta)), grad);
 }
 
 nlohmann::json Scratch::attributes() const {

@@ -340,6 +340,7 @@ class Tracer {
       q.mm_per_uv = sp.mm_per_uv;
       if (needs_cavity_) q.cavity = s_.part->occlusionAt(h.prim, h.b1, h.b2);
       s_.defect_index.forEach(sp.uv, q.footprint(), [&](const Defect& d) { d.shade(q, ds); });
+      ds.height_grad += ds.grooveGrad();
     }
     if (ds.height_grad.x == 0 && ds.height_grad.y == 0) return ds;
     Vec3f n = normalize(sp.ns - surfaceGradient(sp, ds.height_grad));

@@ -182,6 +182,35 @@ LAYOUTS = {
     hardness_hv: 20
     region: [0.495, 0.495, 0.505, 0.505]
 """,
+    # Fourteen scratches in three groups, 0.02 to 0.06 mm deep, crossing and overlapping over a
+    # patch 1.4 mm across (the clusters fuzzer's c58_5, drawn as it drew them; its test looks at
+    # one spot of it, look_at).
+    "cluster58": """
+  - type: scratch
+    count: 4
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 5.3
+    force_kg: 1.97
+    hardness_hv: 20
+    region: [0.4535, 0.4741, 0.5064, 0.5270]
+    curvature_per_mm: {uniform: [0.02, 0.2]}
+    fade_mm: 0.30
+  - type: scratch
+    count: 5
+    orientation_deg: 153
+    length_mm: 6.0
+    force_kg: 3.65
+    hardness_hv: 30
+    region: [0.4491, 0.4740, 0.5132, 0.5382]
+    fade_mm: 0.30
+  - type: scratch
+    count: 5
+    orientation_deg: 107
+    length_mm: 7.0
+    force_kg: 3.31
+    hardness_hv: 20
+    region: [0.4649, 0.4573, 0.5377, 0.5301]
+""",
     # Two deep scratches 0.1 to 0.3 mm apart whose arcs bend opposite ways (the lines fuzzer's
     # l58_6, its regions moved by (0.2, -0.05) mm so that its worst spot lies at the view's centre):
     # the angle between them grows by 3 degrees per mm along them, so in a view 0.5 mm across they
@@ -735,9 +764,10 @@ def _bowed_regions(layout_text):
     return re.sub(r"region: \[([^\]]*)\]", move, layout_text)
 
 
-def _camera(part, fov_deg, distance_mm=60):
+def _camera(part, fov_deg, distance_mm=60, look_at=(0, 0)):
     if part == "plate":
-        return "{fov_deg: %g, position: [0, 0, %g], target: [0, 0, 0]}" % (fov_deg, distance_mm)
+        x, y = look_at
+        return "{fov_deg: %g, position: [%g, %g, %g], target: [%g, %g, 0]}" % (fov_deg, x, y, distance_mm, x, y)
     import math
     ny = _BOW_Y / _BOW_R
     nz = math.sqrt(1 - ny * ny)
@@ -767,7 +797,8 @@ MATERIALS["flat_flakes"] = MATERIALS["flakes"].replace("sparkle: 1", "sparkle: 1
 
 
 def config(layout, light, mode, spp, resolution=96, seed=11, noise_seed=0, roughness=0.15, fov_deg=5, part="plate",
-           material="aluminium", png16=False, scratched=True, count=None, distance_mm=60, cell_mm=None, max_bounces=4):
+           material="aluminium", png16=False, scratched=True, count=None, distance_mm=60, cell_mm=None, max_bounces=4,
+           look_at=(0, 0)):
     """noise_seed: 0 for the renders under test; references use another value so that their noise
     is independent of theirs (the same seed would give geometry at N spp the first N samples of the
     reference's). roughness: the aluminium's. png16: 16-bit PNGs, so that a comparison is not
@@ -778,7 +809,9 @@ def config(layout, light, mode, spp, resolution=96, seed=11, noise_seed=0, rough
     sees a third of a millimetre across). cell_mm: the explicit geometry's finest cells
     (render.geometry_cell_mm; other modes leave it out), for views so close that the automatic cell
     spans pixels. max_bounces: the path length in bounces (1: direct light only, which shows the
-    surfaces' shapes and shadows without the light between walls)."""
+    surfaces' shapes and shadows without the light between walls). look_at: the point of the plate
+    (mm) that the camera looks straight down at, so that a spot of a fuzzer's layout can be seen
+    close with its draws unchanged (plate only)."""
     text = LAYOUTS[layout]
     if count is not None:
         import re
@@ -794,7 +827,7 @@ material: %s
 lights:%s
 camera: %s
 render: {resolution: [%d, %d], spp: %d, max_bounces: %d, scratches: %s, noise_seed: %d%s}
-defects:%s""" % (layout, light, seed, PARTS[part], mat, LIGHTS[light], _camera(part, fov_deg, distance_mm), resolution, resolution, spp,
+defects:%s""" % (layout, light, seed, PARTS[part], mat, LIGHTS[light], _camera(part, fov_deg, distance_mm, look_at), resolution, resolution, spp,
                  max_bounces,
                  mode, noise_seed, (", png: 16" if png16 else "") +
                  (", geometry_cell_mm: %g" % cell_mm if cell_mm and mode == "geometry" else ""),

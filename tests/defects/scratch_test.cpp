@@ -1009,7 +1009,7 @@ TEST(ScratchDefect, SlopeThroughTheBumpInterfaceOnlyWhenAsked) {
     q.point_grooves = point;
     DefectShading ds;
     sc.shade(q, ds);
-    return ds.height_grad;
+    return ds.height_grad + ds.grooveGrad();  // as the integrator's applyDefects sums them
   };
   // b = v - 10 (the path's left is +v); at b = -0.05 the facet from (-0.1, 0.01) to (0, -0.03)
   // falls 0.4 mm per mm.

@@ -597,6 +597,53 @@ TEST(ScratchNormalMap, GradientIsTheFacetSlopeAndOffWithoutBumpShading) {
   EXPECT_EQ(flat.height_grad.y, 0.0f);
 }
 
+// Where the groove renderer point-samples the scratches (rays that meet the scratched face from
+// inside a glass part, DefectQuery::point_grooves), overlapping scratches take the slope of the
+// surface the explicit geometry cuts (scratchHeight), not the sum of their slopes: at a crossing of
+// two grooves with pile-ups the sum tilted the normal by up to twice a wall's slope. Checked against
+// central differences of scratchHeight at points over the crossing; the normal-map baseline keeps
+// the sum.
+TEST(ScratchNormalMap, PointSamplesTakeTheCompositeSurfacesSlope) {
+  const Profile p = pileUpProfile();
+  std::vector<Scratch> two;
+  two.push_back(Scratch::fromProfile(ScratchPath::polyline({{5.0, 10.0}, {15.0, 10.0}}), p));
+  two.push_back(Scratch::fromProfile(ScratchPath::polyline({{8.0, 7.0}, {12.0, 13.0}}), p));
+  const std::vector<const Scratch*> list{&two[0], &two[1]};
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-0.06f, 0.06f);
+  int checked = 0, summed_off = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Vec2f c{10.0f + u(rng), 10.0f + u(rng)};
+    DefectQuery q;
+    q.uv = c;
+    q.point_grooves = true;
+    DefectShading ds;
+    for (const Scratch& s : two) s.shade(q, ds);
+    EXPECT_EQ(ds.height_grad.x, 0.0f);  // the point samples go through grooveGrad() alone
+    const Vec2f g = ds.grooveGrad();
+    // Central differences at two steps; where they disagree the point is by a kink (a facet's
+    // edge, where one groove takes over from the other), which has no single slope.
+    auto fd = [&](float h) {
+      return Vec2f((scratchHeight(list, {c.x + h, c.y}) - scratchHeight(list, {c.x - h, c.y})) / (2 * h),
+                   (scratchHeight(list, {c.x, c.y + h}) - scratchHeight(list, {c.x, c.y - h})) / (2 * h));
+    };
+    const Vec2f a = fd(2e-4f), b = fd(1e-4f);
+    if (std::fabs(a.x - b.x) > 1e-2f || std::fabs(a.y - b.y) > 1e-2f) continue;
+    EXPECT_NEAR(g.x, b.x, 2e-2f) << c.x << " " << c.y;
+    EXPECT_NEAR(g.y, b.y, 2e-2f) << c.x << " " << c.y;
+    ++checked;
+    // The baseline's sum differs wherever both grooves have a slope here.
+    DefectShading sum;
+    for (Scratch s : two) {
+      s.setBumpShading(true);
+      s.shade(q, sum);
+    }
+    if (std::fabs(sum.height_grad.x - b.x) + std::fabs(sum.height_grad.y - b.y) > 0.1f) ++summed_off;
+  }
+  EXPECT_GT(checked, 3000);
+  EXPECT_GT(summed_off, 500);
+}
+
 // A U-turn (a hairpin whose legs' pile-ups nearly meet at the midline, its turn in the cut): each
 // triangle between the legs lies on the height field, checked at its centroid. The path's closest
 // point hands over from one leg to the other along the midline, on which the cells' edges lie, and

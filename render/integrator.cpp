@@ -1500,12 +1500,15 @@ class Tracer {
   }
 
   // A view is close, for the cap of pieces (buildArea), where the reach toward the lights is at
-  // least this many of the pixel's radii: the region's square is 16 pixels wide or more, and a
-  // shadow lost beyond half the reach spans four pixels or more. Until the forty-fifth session it
+  // least this many of the pixel's radii: the region's square is 8 pixels wide or more, and a
+  // shadow lost beyond half the reach spans two pixels or more. Until the forty-fifth session it
   // was 32; the corner fuzzer's c41_7 (the accuracy test's `tiltpin`, 23 radii) kept 0.56% of
   // pixels >= 10 against geometry at 2,048 spp at the ordinary cap, 0% at the close views' cap.
-  // At 12 nothing more changed that showed (docs/grooves.md, "Close views").
-  static constexpr double kCloseReach = 16.0;
+  // Until the fifty-third it was 16; the clusters fuzzer's c58_4 (about 12 radii, the accuracy
+  // test's `cluster58b`) kept 0.82%, now 0.04%, and 56 fuzzer layouts at 1 to 10 degrees took
+  // the same time or less in all (264 s against 281 s): a build refused at the ordinary cap costs
+  // about as much as one that passes at this one (docs/grooves.md, "Eight pixel radii").
+  static constexpr double kCloseReach = 8.0;
 
   // A corner of ng's path at either end of its closest point's segment (ScratchPath::cornerAround:
   // the footprint's own leg is one of its two), within `reach` (uv) of the footprint's centre: the

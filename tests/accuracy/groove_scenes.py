@@ -182,6 +182,35 @@ LAYOUTS = {
     hardness_hv: 20
     region: [0.495, 0.495, 0.505, 0.505]
 """,
+    # Thirteen scratches in three groups crossing over 1.5 mm, the deepest 0.044 mm (the clusters
+    # fuzzer's c58_4, drawn as it drew them; its test looks at one spot of it, look_at).
+    "cluster58b": """
+  - type: scratch
+    count: 4
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 8.0
+    force_kg: 1.94
+    hardness_hv: 20
+    region: [0.4585, 0.4905, 0.5100, 0.5420]
+    fade_mm: 0.30
+    pileup: 0.31
+  - type: scratch
+    count: 3
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 4.3
+    force_kg: 1.51
+    hardness_hv: 60
+    region: [0.4908, 0.4776, 0.5450, 0.5318]
+    pileup: 0.12
+  - type: scratch
+    count: 6
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 8.9
+    force_kg: 0.33
+    hardness_hv: 30
+    region: [0.4895, 0.4776, 0.5269, 0.5150]
+    curvature_per_mm: {uniform: [0.02, 0.2]}
+""",
     # Fourteen scratches in three groups, 0.02 to 0.06 mm deep, crossing and overlapping over a
     # patch 1.4 mm across (the clusters fuzzer's c58_5, drawn as it drew them; its test looks at
     # one spot of it, look_at).

@@ -836,10 +836,49 @@ TEST(Groove, MergeOverlapRemovesWhatAnyGrooveRemovesAndKeepsEveryPileUp) {
   }
 }
 
+// Merges 200 random sets of one to three profiles, each with a force fade (rho) and, with
+// `turns`, a turn of up to 2 degrees, and checks every facet's tilt against the slope of the merged
+// surface itself: -n_w dw/dt (the 3-D normal (tilt, n_b, n_w) is orthogonal to (1, 0, dw/dt)),
+// with dw/dt from merging the profiles as they lie at t = +-h (scaled by 1 +- rho h, their centre
+// lines moved across by +-turn h). Returns how many facets were checked.
+int tiltsMatchDifferences(Rand& rnd, bool turns) {
+  const double h = 1e-6, extent = 2.5;
+  int checked = 0;
+  for (int c = 0; c < 200; ++c) {
+    const int g = rnd.integer(1, 3);
+    std::vector<Prof> ps, plus, minus;
+    std::vector<PlacedProfile> placed, at_plus, at_minus;
+    for (int i = 0; i < g; ++i) ps.push_back(randomProfile(rnd, rnd(0.3, 1.5)));
+    plus = minus = ps;
+    for (int i = 0; i < g; ++i) {
+      const double off = rnd(-1, 0.5), rho = rnd(-2, 2), turn = turns ? rnd(-0.035, 0.035) : 0.0;
+      const bool mirrored = rnd(0, 1) < 0.3;
+      for (Vec2d& q : plus[size_t(i)].pts) q = q * (1 + rho * h);
+      for (Vec2d& q : minus[size_t(i)].pts) q = q * (1 - rho * h);
+      placed.push_back({&ps[size_t(i)].pts, &ps[size_t(i)].layer, off, mirrored});
+      placed.back().rho = rho;
+      placed.back().turn = turn;
+      at_plus.push_back({&plus[size_t(i)].pts, &plus[size_t(i)].layer, off + turn * h, mirrored});
+      at_minus.push_back({&minus[size_t(i)].pts, &minus[size_t(i)].layer, off - turn * h, mirrored});
+    }
+    const Section s = merge(placed, extent), sp = merge(at_plus, extent), sm = merge(at_minus, extent);
+    EXPECT_EQ(s.tilt.size(), s.facets());
+    if (s.tilt.size() != s.facets()) continue;
+    for (size_t k = 0; k < s.facets(); ++k) {
+      const Vec2d a = s.pts[k], b = s.pts[k + 1];
+      if (!(b.x - a.x > 1e-3)) continue;  // vertical or too short to difference across
+      const double mid = 0.5 * (a.x + b.x);
+      const double dwdt = (heightAt(sp.pts, mid) - heightAt(sm.pts, mid)) / (2 * h);
+      EXPECT_NEAR(s.tilt[k], -s.normal(k).y * dwdt, 1e-5 * (1 + std::fabs(dwdt))) << "case " << c << " facet " << k;
+      ++checked;
+    }
+  }
+  return checked;
+}
+
 // A force fade scales a profile along the path, r(t) = 1 + rho t about its own origin, so its
-// facets slope along t. Each merged facet's tilt must be the slope of the merged surface itself:
-// -n_w dw/dt (the 3-D normal (tilt, n_b, n_w) is orthogonal to (1, 0, dw/dt)), with dw/dt from
-// merging the profiles scaled to t = +-h.
+// facets slope along t. Each merged facet's tilt must be the slope of the merged surface itself
+// (tiltsMatchDifferences).
 TEST(Groove, MergeTiltsFacetsAsTheirFadingProfilesMove) {
   // One V-groove deepening along t: its left wall (normal (1, 1)/sqrt2, 1/sqrt2 from the origin
   // on the inside) goes down as t grows, so its normal leans towards +t: tilt = rho / sqrt2.
@@ -857,36 +896,7 @@ TEST(Groove, MergeTiltsFacetsAsTheirFadingProfilesMove) {
   EXPECT_TRUE(single(v, 0.3, 3).tilt.empty());
 
   Rand rnd(11);
-  const double h = 1e-6, extent = 2.5;
-  int checked = 0;
-  for (int c = 0; c < 200; ++c) {
-    const int g = rnd.integer(1, 3);
-    std::vector<Prof> ps, plus, minus;
-    std::vector<PlacedProfile> placed, at_plus, at_minus;
-    for (int i = 0; i < g; ++i) ps.push_back(randomProfile(rnd, rnd(0.3, 1.5)));
-    plus = minus = ps;
-    for (int i = 0; i < g; ++i) {
-      const double off = rnd(-1, 0.5), rho = rnd(-2, 2);
-      const bool mirrored = rnd(0, 1) < 0.3;
-      for (Vec2d& q : plus[size_t(i)].pts) q = q * (1 + rho * h);
-      for (Vec2d& q : minus[size_t(i)].pts) q = q * (1 - rho * h);
-      placed.push_back({&ps[size_t(i)].pts, &ps[size_t(i)].layer, off, mirrored});
-      placed.back().rho = rho;
-      at_plus.push_back({&plus[size_t(i)].pts, &plus[size_t(i)].layer, off, mirrored});
-      at_minus.push_back({&minus[size_t(i)].pts, &minus[size_t(i)].layer, off, mirrored});
-    }
-    const Section s = merge(placed, extent), sp = merge(at_plus, extent), sm = merge(at_minus, extent);
-    ASSERT_EQ(s.tilt.size(), s.facets());
-    for (size_t k = 0; k < s.facets(); ++k) {
-      const Vec2d a = s.pts[k], b = s.pts[k + 1];
-      if (!(b.x - a.x > 1e-3)) continue;  // vertical or too short to difference across
-      const double mid = 0.5 * (a.x + b.x);
-      const double dwdt = (heightAt(sp.pts, mid) - heightAt(sm.pts, mid)) / (2 * h);
-      EXPECT_NEAR(s.tilt[k], -s.normal(k).y * dwdt, 1e-5 * (1 + std::fabs(dwdt))) << "case " << c << " facet " << k;
-      ++checked;
-    }
-  }
-  EXPECT_GT(checked, 1000);
+  EXPECT_GT(tiltsMatchDifferences(rnd, false), 1000);
 }
 
 // A groove turned from the section's t by an angle of tangent `turn` (merged with grooves within
@@ -919,37 +929,7 @@ TEST(Groove, MergeTiltsFacetsOfATurnedGrooveWithItsOwnNormal) {
   EXPECT_EQ(walls, 2);
 
   Rand rnd(12);
-  const double h = 1e-6, extent = 2.5;
-  int checked = 0;
-  for (int c = 0; c < 200; ++c) {
-    const int g = rnd.integer(1, 3);
-    std::vector<Prof> ps, plus, minus;
-    std::vector<PlacedProfile> placed, at_plus, at_minus;
-    for (int i = 0; i < g; ++i) ps.push_back(randomProfile(rnd, rnd(0.3, 1.5)));
-    plus = minus = ps;
-    for (int i = 0; i < g; ++i) {
-      const double off = rnd(-1, 0.5), rho = rnd(0, 1) < 0.5 ? 0.0 : rnd(-2, 2), turn = rnd(-0.035, 0.035);
-      const bool mirrored = rnd(0, 1) < 0.3;
-      for (Vec2d& q : plus[size_t(i)].pts) q = q * (1 + rho * h);
-      for (Vec2d& q : minus[size_t(i)].pts) q = q * (1 - rho * h);
-      placed.push_back({&ps[size_t(i)].pts, &ps[size_t(i)].layer, off, mirrored});
-      placed.back().rho = rho;
-      placed.back().turn = turn;
-      at_plus.push_back({&plus[size_t(i)].pts, &plus[size_t(i)].layer, off + turn * h, mirrored});
-      at_minus.push_back({&minus[size_t(i)].pts, &minus[size_t(i)].layer, off - turn * h, mirrored});
-    }
-    const Section s = merge(placed, extent), sp = merge(at_plus, extent), sm = merge(at_minus, extent);
-    ASSERT_EQ(s.tilt.size(), s.facets());
-    for (size_t k = 0; k < s.facets(); ++k) {
-      const Vec2d p0 = s.pts[k], p1 = s.pts[k + 1];
-      if (!(p1.x - p0.x > 1e-3)) continue;  // vertical or too short to difference across
-      const double mid = 0.5 * (p0.x + p1.x);
-      const double dwdt = (heightAt(sp.pts, mid) - heightAt(sm.pts, mid)) / (2 * h);
-      EXPECT_NEAR(s.tilt[k], -s.normal(k).y * dwdt, 1e-5 * (1 + std::fabs(dwdt))) << "case " << c << " facet " << k;
-      ++checked;
-    }
-  }
-  EXPECT_GT(checked, 1000);
+  EXPECT_GT(tiltsMatchDifferences(rnd, true), 1000);
 }
 
 }  // namespace

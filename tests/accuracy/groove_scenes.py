@@ -240,10 +240,10 @@ LAYOUTS = {
     hardness_hv: 20
     region: [0.4649, 0.4573, 0.5377, 0.5301]
 """,
-    # Two deep scratches 0.1 to 0.3 mm apart whose arcs bend opposite ways (the lines fuzzer's
-    # l58_6, its regions moved by (0.2, -0.05) mm so that its worst spot lies at the view's centre):
-    # the angle between them grows by 3 degrees per mm along them, so in a view 0.5 mm across they
-    # are merged as parallel (within 2 degrees) on one side and go to the polygons on the other.
+    # Two deep scratches side by side whose arcs bend opposite ways (the lines fuzzer's l58_6,
+    # drawn as it drew them; its test looks at one spot of it, look_at): the angle between them
+    # grows by 3 degrees per mm along them, so in a view 0.5 mm across they are merged as parallel
+    # (within 2 degrees) on one side and go to the polygons on the other.
     "nearpar58": """
   - type: scratch
     count: 2
@@ -251,7 +251,7 @@ LAYOUTS = {
     length_mm: 3.9
     force_kg: 3.92
     hardness_hv: 20
-    region: [0.4790, 0.4779, 0.4950, 0.4939]
+    region: [0.4690, 0.4804, 0.4850, 0.4964]
     curvature_per_mm: 0.027
     fade_mm: 0.30
     perturbation: 0.15
@@ -261,7 +261,7 @@ LAYOUTS = {
     length_mm: 1.7
     force_kg: 1.80
     hardness_hv: 60
-    region: [0.5246, 0.4672, 0.5406, 0.4832]
+    region: [0.5146, 0.4697, 0.5306, 0.4857]
     curvature_per_mm: 0.111
     fade_mm: 1.00
     perturbation: 0.70

@@ -1138,7 +1138,8 @@ void Scratch::shade(const DefectQuery& qy, DefectShading& out) const {
   const double len = path_.length(), ds = 1e-3;
   const double s0 = std::max(0.0, double(q.s) - ds), s1 = std::min(len, double(q.s) + ds);
   const double dk = s1 > s0 ? (double(scaleAt(float(s1))) - scaleAt(float(s0))) / (s1 - s0) : 0.0;
-  double along = dk * (ref_.heightAt(beta) - beta * slope);
+  const double height = ref_.heightAt(beta);  // H(beta)
+  double along = dk * (height - beta * slope);
   // Vertical facets have no finite slope; cap the tilt at 80 degrees.
   slope = std::max(-5.67, std::min(5.67, slope));
   along = std::max(-5.67, std::min(5.67, along));
@@ -1149,7 +1150,7 @@ void Scratch::shade(const DefectQuery& qy, DefectShading& out) const {
   if (bump_shading_)
     out.height_grad += grad;
   else
-    out.addGroove(k * float(ref_.heightAt(beta)), grad);
+    out.addGroove(k * float(height), grad);
 }
 
 nlohmann::json Scratch::attributes() const {

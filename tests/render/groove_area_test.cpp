@@ -1192,25 +1192,69 @@ TEST(GrooveArea, ACornerAndAPassAcrossItsLegsAreOnePartition) {
   const Groove corner = ofParts(corner_parts, 7);
   Surface two;
   ASSERT_TRUE(two.build(region, {pass, corner}));
-  double worst = 0, worst_two = 0;
+  // (On the corner's round outer sides, where a vertex is the closest point, the fans differ: with
+  // the pass beside them chainParts refines a fan about the pass's axis, appendFan, and each fan is
+  // within 1.6 (the profile's steepest slope) x 0.143 (its half-width) x (1 / cos 7.5 degrees - 1)
+  // = 1.9e-3 mm of the round cap. Elsewhere the two partitions are one to rounding.)
+  double worst = 0, worst_fan = 0, worst_two = 0;
   for (int j = 0; j <= 120; ++j)
     for (int i = 0; i <= 120; ++i) {
       const Vec2d p(-0.6 + 1.2 * (i + 0.31) / 121, -0.6 + 1.2 * (j + 0.57) / 121);
       const double d_pass = std::fabs(p.y + 0.034525);
       const double d_corner = std::min({toSegment(p, far_a, c1), toSegment(p, c1, c2), toSegment(p, c2, far_c)});
       const double want = d_pass <= d_corner ? grooveHeight(pass, p) : grooveHeight(corner, p);
+      const bool fan = d_pass > d_corner && std::min(std::hypot(p.x - c1.x, p.y - c1.y), std::hypot(p.x - c2.x, p.y - c2.y)) <=
+                                                d_corner + 1e-9;
       const int k = pieceAt(s, p), k2 = pieceAt(two, p);
       ASSERT_GE(k, 0);
       ASSERT_GE(k2, 0);
-      worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
+      (fan ? worst_fan : worst) = std::max(fan ? worst_fan : worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
       worst_two = std::max(worst_two, std::fabs(two.pieces()[size_t(k2)].plane.at(p) - want));
     }
   std::printf("[          ] sectors of %.0f degrees: %zu parts, at most %d half-planes each: height off by at most "
-              "%.2e mm (composited: %.2e)\n",
-              sector, parts.size(), most, worst, worst_two);
+              "%.2e mm, %.2e on the fans (composited: %.2e)\n",
+              sector, parts.size(), most, worst, worst_fan, worst_two);
   EXPECT_GT(most, 10);  // (the case that needed the wider cap)
   EXPECT_LT(worst, 1e-9);
+  EXPECT_LT(worst_fan, 2e-3);
   EXPECT_GT(worst_two, 0.03);
+}
+
+// A path's corner (a turn of 156 degrees, a tilted tool's profile) whose later leg runs straight
+// past the vertex 0.7 um away, on the side of the corner's legs, as the corner fuzzer's c60_0 drew
+// it. Above the vertex the points nearer to it than to the later leg lie inside a narrow parabola
+// (at 0.1 mm from the vertex, within 12 um of its axis), where the cap's outer half (a pile-up
+// 7 um high) holds; outside it the later leg's other half (2 um). A fan of 15-degree sectors cut
+// that parabola along chords far from the curve, and points of the cap took the leg's height.
+// chainParts refines the fan about the leg's axis: against the explicit geometry's surface (the
+// profile at the signed distance to the path's closest point) it is off by no more than the fan's
+// own polygonal cap.
+TEST(GrooveArea, AFansSectorsFollowALegThatPassesCloseToItsVertex) {
+  const Vec2d v(0.0, 0.0), ta = dirOf(100), tb = dirOf(256), tp = dirOf(4);
+  auto [a, b] = legs(v, ta, tb);
+  a.pts = b.pts = &kTiltedProfile;
+  a.t_hi = 0;
+  b.t_lo = 0;
+  const double delta = 7e-4;
+  const Vec2d pp = Vec2d(-tp.y, tp.x) * -delta;  // the leg's point nearest the vertex
+  Groove pass = along(tp, 0, 0);
+  pass.pts = &kTiltedProfile;
+  pass.t0 = -(tp.x * pp.x + tp.y * pp.y);
+  pass.b0 = -(pass.bdir.x * pp.x + pass.bdir.y * pp.y);
+  const Poly region = rect(-0.15, -0.15, 0.15, 0.15);
+  std::vector<Groove> parts, plain;
+  ASSERT_TRUE(chainParts({a, b, pass}, 15 * M_PI / 180, region, parts, {2}));
+  // (The same fan without the leg beside it: how many sectors the refinement added.)
+  ASSERT_TRUE(chainParts({a, b}, 15 * M_PI / 180, region, plain));
+  Surface s;
+  ASSERT_TRUE(s.build(region, {ofParts(parts)}));
+  const ScratchPath path =
+      ScratchPath::polyline({v - ta * 20, v, v + tb * 20, pp - tp * 20, pp + tp * 20});
+  const double worst = offClosestProfile(s, path, kTiltedProfile);
+  std::printf("[          ] %zu parts (%zu without the leg beside the vertex): height off by at most %.2e mm\n",
+              parts.size(), plain.size(), worst);
+  EXPECT_LT(worst, 4.5e-4);  // (as a lone corner's cap: 0.7 x 0.07 x (1 / cos 7.5 degrees - 1))
+  EXPECT_GT(parts.size(), plain.size() + 4);
 }
 
 // A knot of four corners of one path (the corner fuzzer's c45_6 seen at 1 degree, a tilted

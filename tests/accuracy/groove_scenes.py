@@ -244,6 +244,31 @@ LAYOUTS = {
     # drawn as it drew them; its test looks at one spot of it, look_at): the angle between them
     # grows by 3 degrees per mm along them, so in a view 0.5 mm across they are merged as parallel
     # (within 2 degrees) on one side and go to the polygons on the other.
+    # Two scratches given point by point (the corners fuzzer's c60_0, drawn as it drew them; its test
+    # looks at one spot of it, look_at): the first, cut by a tool tilted 24 degrees, turns 156
+    # degrees at (-0.49, -0.08) mm, and its last leg passes 0.7 micrometres from that vertex; the
+    # second's legs cross the cap above it.
+    "vertex60": """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.4860, 0.5039]
+    path_mm: [0.6263, -4.0743, -0.2075, -0.1622, -0.5099, -1.5973, -1.1121, -0.4334, -1.0822, -0.2228, 2.9086, 0.0477]
+    force_kg: 3.30
+    hardness_hv: 20
+    tool_tilt_deg: 24
+    tool_tilt_azimuth_deg: 321
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5000, 0.5124]
+    path_mm: [2.9965, 2.2385, -0.2350, -0.1189, -0.6757, 0.0635, -1.1259, 0.0761, 2.5677, -1.4594]
+    force_kg: 1.66
+    hardness_hv: 20
+    perturbation: 0.15
+""",
     "nearpar58": """
   - type: scratch
     count: 2

@@ -538,13 +538,15 @@ void appendFan(const Groove& in, const Groove& like, Vec2d v, Vec2d tb, double t
   if (axes)
     for (size_t i = 0; i < axes->size(); ++i) {
       const Vec2d a = (*axes)[i];
-      // The axis's angle from na, turning with the sweep, in [-pi, pi).
+      // The axis's angle from na, turning with the sweep, in [-pi, pi] (and a turn either way of
+      // it: an axis just past a half turn's end, at -pi + x, refines that end's sectors).
       const double alpha = dir * std::atan2(na.x * a.y - na.y * a.x, na.x * a.x + na.y * a.y);
       const double phi0 = std::sqrt(2 * (*near)[i] / reach);
       if (!(phi0 >= kFanRefineMin) || !(phi0 < max_sector / (kFanRefineRatio - 1))) continue;
       for (double phi = phi0; phi * (kFanRefineRatio - 1) < max_sector; phi *= kFanRefineRatio)
-        for (double e : {alpha - phi, alpha + phi})
-          if (e > 0 && e < span) edges.push_back(e);
+        for (double at : {alpha - 2 * kPiTurn, alpha, alpha + 2 * kPiTurn})
+          for (double e : {at - phi, at + phi})
+            if (e > 0 && e < span) edges.push_back(e);
     }
   int n = 0;
   if (edges.empty()) {
@@ -578,7 +580,7 @@ void appendFan(const Groove& in, const Groove& like, Vec2d v, Vec2d tb, double t
     if (!edges.empty()) {
       half = 0.5 * dir * (edges[size_t(k) + 1] - edges[size_t(k)]);
       ang = 0.5 * dir * (edges[size_t(k) + 1] + edges[size_t(k)]);
-      past_middle = edges[size_t(k)] >= 0.5 * span - 1e-12;
+      past_middle = edges[size_t(k)] + edges[size_t(k) + 1] > span;  // (its middle past the fan's)
     }
     const double stretch = 1 / std::cos(half), tan_half = std::tan(std::fabs(half));
     const double side = on_one_line && past_middle ? -1.0 : 1.0;

@@ -135,40 +135,38 @@ double profileAt(double b, const std::vector<Vec2d>& P = kProfile) {
   return 0.0;
 }
 
-// The largest difference over an 81 x 81 grid of [-half, half]^2 between s's height and kProfile at
-// the signed distance to the closest point of `path` (Scratch::height's rule); infinite, with a
-// failure, where a grid point is on no piece.
-double offClosestProfile(const Surface& s, const ScratchPath& path, const std::vector<Vec2d>& profile = kProfile,
-                         double half = 0.15) {
-  double worst = 0;
+// The differences over an 81 x 81 grid of [-half, half]^2 between s's height and `profile` at the
+// signed distance to the closest point of `path` (Scratch::height's rule), one per point
+// (infinite where a point is on no piece).
+std::vector<double> closestProfileDifferences(const Surface& s, const ScratchPath& path,
+                                              const std::vector<Vec2d>& profile, double half) {
+  std::vector<double> diffs;
   for (int j = 0; j <= 80; ++j)
     for (int i = 0; i <= 80; ++i) {
       const Vec2d p(-half + 2 * half * (i + 0.31) / 81, -half + 2 * half * (j + 0.57) / 81);
       const double want = profileAt(double(path.closest(Vec2f(float(p.x), float(p.y))).offset), profile);
       const int k = pieceAt(s, p);
-      if (k < 0) {
-        ADD_FAILURE() << "no piece at " << p.x << ", " << p.y;
-        return std::numeric_limits<double>::infinity();
-      }
-      worst = std::max(worst, std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
+      if (k < 0) ADD_FAILURE() << "no piece at " << p.x << ", " << p.y;
+      diffs.push_back(k < 0 ? std::numeric_limits<double>::infinity()
+                            : std::fabs(s.pieces()[size_t(k)].plane.at(p) - want));
     }
-  return worst;
+  return diffs;
 }
 
-// How many points of offClosestProfile's grid are off by more than `tol`. (Where the partition's
-// cut runs within a rounding of a grid point, across a step of the profile, one point can be off
-// by the step: a count bounds what a largest difference cannot.)
+// The largest of those differences (with kProfile by default).
+double offClosestProfile(const Surface& s, const ScratchPath& path, const std::vector<Vec2d>& profile = kProfile,
+                         double half = 0.15) {
+  const std::vector<double> d = closestProfileDifferences(s, path, profile, half);
+  return *std::max_element(d.begin(), d.end());
+}
+
+// How many of them exceed `tol`. (Where the partition's cut runs close to a grid point across a
+// step of the profile, one point can be off by the step: a count bounds what a largest difference
+// cannot.)
 int countOffClosestProfile(const Surface& s, const ScratchPath& path, const std::vector<Vec2d>& profile, double tol,
                            double half = 0.15) {
-  int off = 0;
-  for (int j = 0; j <= 80; ++j)
-    for (int i = 0; i <= 80; ++i) {
-      const Vec2d p(-half + 2 * half * (i + 0.31) / 81, -half + 2 * half * (j + 0.57) / 81);
-      const double want = profileAt(double(path.closest(Vec2f(float(p.x), float(p.y))).offset), profile);
-      const int k = pieceAt(s, p);
-      off += k < 0 || std::fabs(s.pieces()[size_t(k)].plane.at(p) - want) > tol;
-    }
-  return off;
+  const std::vector<double> d = closestProfileDifferences(s, path, profile, half);
+  return int(std::count_if(d.begin(), d.end(), [&](double x) { return x > tol; }));
 }
 
 // A groove made of parts (cornerParts, chainParts, passParts), with id `id`.

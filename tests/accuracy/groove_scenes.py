@@ -240,10 +240,6 @@ LAYOUTS = {
     hardness_hv: 20
     region: [0.4649, 0.4573, 0.5377, 0.5301]
 """,
-    # Two deep scratches side by side whose arcs bend opposite ways (the lines fuzzer's l58_6,
-    # drawn as it drew them; its test looks at one spot of it, look_at): the angle between them
-    # grows by 3 degrees per mm along them, so in a view 0.5 mm across they are merged as parallel
-    # (within 2 degrees) on one side and go to the polygons on the other.
     # Two scratches given point by point (the corners fuzzer's c60_0, drawn as it drew them; its test
     # looks at one spot of it, look_at): the first, cut by a tool tilted 24 degrees, turns 156
     # degrees at (-0.49, -0.08) mm, and its last leg passes 0.7 micrometres from that vertex; the
@@ -269,6 +265,10 @@ LAYOUTS = {
     hardness_hv: 20
     perturbation: 0.15
 """,
+    # Two deep scratches side by side whose arcs bend opposite ways (the lines fuzzer's l58_6,
+    # drawn as it drew them; its test looks at one spot of it, look_at): the angle between them
+    # grows by 3 degrees per mm along them, so in a view 0.5 mm across they are merged as parallel
+    # (within 2 degrees) on one side and go to the polygons on the other.
     "nearpar58": """
   - type: scratch
     count: 2

@@ -498,14 +498,21 @@ double outerOf(const Groove& in, Vec2d tb, double turn) {
 constexpr double kFanRefineRatio = 1.5;
 constexpr double kFanRefineMin = 1e-3;
 
+// Another candidate's centre line as a fan sees it: the unit direction from the line through the
+// vertex (the parabola's axis) and the line's distance from the vertex.
+struct FanAxis {
+  Vec2d dir;
+  double near = 0;
+};
+
 // The round outer side of a corner at v where the path turns by `turn` from leg `in` to a leg
 // along tb: sectors no wider than max_sector, each a straight groove through v (with `like`'s
 // profile, layers and id) across its middle ray, clipped to its wedge and stretched by 1 /
 // cos(half the sector) so that on the wedge's edges its offset is the exact distance from v.
 //
-// `axes` (optional): directions (unit vectors) from v away from another candidate's centre line
-// that passes at distance `near` (the same index) from v, with `reach` the largest distance from v
-// that the partition covers. Where a fan and a straight candidate compete, the points nearer the
+// `axes` (optional): other candidates' centre lines near v (FanAxis: the direction from each line
+// through v, and its distance `near` from v), with `reach` the largest distance from v that the
+// partition covers. Where a fan and a straight candidate compete, the points nearer the
 // vertex than the line lie inside a parabola (focus v, directrix the line), and each sector cuts
 // it along a chord: the cut b_fan = b_line is linear, exact on the sector's two edges. Where the
 // line passes close to v the parabola is narrow (at distance r it spans sqrt(2 near / r) rad each
@@ -517,8 +524,7 @@ constexpr double kFanRefineMin = 1e-3;
 // that no chord spans more than a ratio q in angle from the axis. (Where phi_0 < kFanRefineMin the
 // whole strip is too thin to matter, and the fan is left as it is.)
 void appendFan(const Groove& in, const Groove& like, Vec2d v, Vec2d tb, double turn, double max_sector,
-               std::vector<Groove>& parts, const std::vector<Vec2d>* axes = nullptr,
-               const std::vector<double>* near = nullptr, double reach = 0) {
+               std::vector<Groove>& parts, const std::vector<FanAxis>* axes = nullptr, double reach = 0) {
   const double outer = outerOf(in, tb, turn);
   // The cap's rays run from the first leg's outer normal to the second's, turning with the path
   // (with the legs on one line, by a half turn: the half disc beyond the vertex).
@@ -536,12 +542,12 @@ void appendFan(const Groove& in, const Groove& like, Vec2d v, Vec2d tb, double t
   edges.clear();
   const double dir = sweep < 0 ? -1.0 : 1.0, span = std::fabs(sweep);
   if (axes)
-    for (size_t i = 0; i < axes->size(); ++i) {
-      const Vec2d a = (*axes)[i];
+    for (const FanAxis& ax : *axes) {
+      const Vec2d a = ax.dir;
       // The axis's angle from na, turning with the sweep, in [-pi, pi] (and a turn either way of
       // it: an axis just past a half turn's end, at -pi + x, refines that end's sectors).
       const double alpha = dir * std::atan2(na.x * a.y - na.y * a.x, na.x * a.x + na.y * a.y);
-      const double phi0 = std::sqrt(2 * (*near)[i] / reach);
+      const double phi0 = std::sqrt(2 * ax.near / reach);
       if (!(phi0 >= kFanRefineMin) || !(phi0 < max_sector / (kFanRefineRatio - 1))) continue;
       for (double phi = phi0; phi * (kFanRefineRatio - 1) < max_sector; phi *= kFanRefineRatio)
         for (double at : {alpha - 2 * kPiTurn, alpha, alpha + 2 * kPiTurn})
@@ -689,8 +695,7 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
   };
   thread_local std::vector<Candidate> cands;
   thread_local std::vector<Groove> fan;
-  thread_local std::vector<Vec2d> axes;
-  thread_local std::vector<double> nears;
+  thread_local std::vector<FanAxis> axes;
   cands.clear();
   auto starts = [&](size_t k) {
     return k == 0 || k == n || std::find(run_starts.begin(), run_starts.end(), k) != run_starts.end();
@@ -721,7 +726,6 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
     // The other legs' centre lines that pass near the vertex (appendFan's axes): each leg but the
     // corner's own two, whose domains end on the fan's edges.
     axes.clear();
-    nears.clear();
     double reach = 0;
     for (int j = 0; j < bound.n; ++j) reach = std::max(reach, std::hypot(bound.v[size_t(j)].x - v.x, bound.v[size_t(j)].y - v.y));
     for (size_t j = 0; j < n; ++j) {
@@ -729,12 +733,11 @@ bool chainParts(const std::vector<Groove>& legs, double max_sector, const Poly& 
       const double lb = std::hypot(legs[j].bdir.x, legs[j].bdir.y);
       if (!(lb > 0)) continue;
       const double b = (legs[j].bdir.x * v.x + legs[j].bdir.y * v.y + legs[j].b0) / lb;
-      axes.push_back(legs[j].bdir * ((b < 0 ? -1.0 : 1.0) / lb));
-      nears.push_back(std::fabs(b));
+      axes.push_back({legs[j].bdir * ((b < 0 ? -1.0 : 1.0) / lb), std::fabs(b)});
     }
     // (Past kMaxCornerTurn, a half turn: the fan is the half disc beyond the vertex, as in
     // cornerParts.)
-    appendFan(legs[k], legs[k + 1], v, unitOf(legs[k + 1].tdir), turn, max_sector, fan, &axes, &nears, reach);
+    appendFan(legs[k], legs[k + 1], v, unitOf(legs[k + 1].tdir), turn, max_sector, fan, &axes, reach);
     for (const Groove& c : fan) cands.push_back({c, {c.bdir, c.b0}});
   }
   // The partition of `bound`, one candidate at a time: each takes, within its own domain, the part

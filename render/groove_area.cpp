@@ -1821,7 +1821,7 @@ Hits Surface::scatter(const Portion& p, Vec3d d) const {
     h.hits.push_back(std::move(hit));
   }
   h.escaped = p.density * area(rest);
-  if (!(d.z > 0) && h.escaped > 0) {
+  if (h.escaped > 0) {
     // The centroid of the rest.
     Vec2d c;
     if (centroid(rest, c)) h.escaped_at = c;
@@ -1829,16 +1829,21 @@ Hits Surface::scatter(const Portion& p, Vec3d d) const {
   return h;
 }
 
-const Groove* Surface::leaving(Vec3d o, Vec3d d, Vec3d& at) const {
+bool Surface::exitPoint(Vec3d o, Vec3d d, Vec3d& at) const {
   // The least s > 0 at which o + s d crosses the box's boundary (o inside it).
   double s = 1e300;
   if (d.x > 0) s = std::min(s, (region_hi_.x - o.x) / d.x);
   if (d.x < 0) s = std::min(s, (region_lo_.x - o.x) / d.x);
   if (d.y > 0) s = std::min(s, (region_hi_.y - o.y) / d.y);
   if (d.y < 0) s = std::min(s, (region_lo_.y - o.y) / d.y);
-  if (!(s < 1e300)) return nullptr;
+  if (!(s < 1e300)) return false;
   s = std::max(s, 0.0);
   at = Vec3d(o.x + s * d.x, o.y + s * d.y, o.z + s * d.z);
+  return true;
+}
+
+const Groove* Surface::leaving(Vec3d o, Vec3d d, Vec3d& at) const {
+  if (!exitPoint(o, d, at)) return nullptr;
   const Vec2d p(at.x, at.y);
   const Groove* best = nullptr;
   double best_u = 1e300;

@@ -257,8 +257,9 @@ struct Portion {
 struct Hits {
   std::vector<Portion> hits;  // weights: shares of the portion's weight
   double escaped = 0;         // the share that leaves the surface
-  // For a direction that does not rise (d.z <= 0), where the escaped share leaves the portion:
-  // the centroid of its fragments. Such rays leave the region sideways (Surface::leaving).
+  // Where the escaped share leaves the portion: the centroid of its fragments. A direction that
+  // does not rise (d.z <= 0) leaves the region sideways (Surface::leaving); one that rises low may
+  // meet a pile-up beyond it (the integrator's pileUpAhead).
   Vec2d escaped_at{0, 0};
 };
 
@@ -323,6 +324,9 @@ class Surface {
   // horizontal part. A ray that meets no piece and does not rise leaves this way: the explicit
   // geometry's meets the groove farther along (the integrator hands it to that groove's section).
   const Groove* leaving(Vec3d o, Vec3d d, Vec3d& at) const;
+  // Only the crossing: where the ray from o (inside the region's box) along d leaves the box,
+  // with its height on the ray. False where d has no horizontal part.
+  bool exitPoint(Vec3d o, Vec3d d, Vec3d& at) const;
 
   // A vertical wall where the composite steps: a groove cutting below the base next to another's
   // pile-up, or a groove that ends before its cross-section has faded out. The quad over the

@@ -28,6 +28,42 @@ float scratchHeight(const std::vector<const Scratch*>& scratches, Vec2f p) {
   return lowest < 0 ? lowest : highest;
 }
 
+const Scratch* scratchAt(const std::vector<const Scratch*>& scratches, Vec2f p) {
+  float lowest = 0, highest = 0;
+  const Scratch *low = nullptr, *high = nullptr;
+  for (const Scratch* s : scratches) {
+    if (!s->support().contains(p)) continue;
+    const float h = s->height(p);
+    if (h < lowest) lowest = h, low = s;
+    if (h > highest) highest = h, high = s;
+  }
+  return low ? low : high;
+}
+
+bool meetScratchHeight(const std::vector<const Scratch*>& scratches, Vec2d a, Vec2d du, double z0, double slope,
+                       double len, double step, double tol, HeightMeet& out) {
+  if (!(step > 0) || !(len > 0)) return false;
+  auto uvOf = [&](double x) { return Vec2f(float(a.x + du.x * x), float(a.y + du.y * x)); };
+  auto below = [&](double x) { return z0 + slope * x < double(scratchHeight(scratches, uvOf(x))) - tol; };
+  double lo = 0, hi = 0;
+  for (double x = std::min(step, len);; x = std::min(x + step, len)) {
+    if (below(x)) {
+      hi = x;
+      break;
+    }
+    lo = x;
+    if (x >= len) return false;
+  }
+  out.from = lo;
+  for (int i = 0; i < 10; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (below(mid) ? hi : lo) = mid;
+  }
+  out.at = hi;
+  out.scratch = scratchAt(scratches, uvOf(hi));
+  return out.scratch != nullptr;
+}
+
 namespace {
 
 // A part triangle as the re-mesher sees it (doubles: the chart of a large part spans a metre, and

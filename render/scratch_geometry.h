@@ -52,6 +52,23 @@ struct ScratchGeometryStats {
 
 // Composite height (mm, along the outward normal) of the scratches at UV point p.
 float scratchHeight(const std::vector<const Scratch*>& scratches, Vec2f p);
+// The scratch whose height scratchHeight gives at p (the lowest cut, else the highest pile-up);
+// null where none has a height there.
+const Scratch* scratchAt(const std::vector<const Scratch*>& scratches, Vec2f p);
+
+// Where a ray over the part first goes below the scratches' composite height (scratchHeight): the
+// ray at height z0 + slope x over the UV line a + du x, for x from 0 to len (du: UV per unit of x),
+// sampled every `step` of x from x = step on. Below means by more than tol. Between the last sample
+// above and the first below it is refined by bisection to step / 1024. A feature narrower than a
+// step can be passed over. The groove renderer's rays that rise low out of a footprint's polygons
+// (docs/grooves.md, "Rising over the pile-ups beyond").
+struct HeightMeet {
+  double from = 0;  // the last sample above (x)
+  double at = 0;    // where the ray goes below (x)
+  const Scratch* scratch = nullptr;  // whose height that is there (scratchAt)
+};
+bool meetScratchHeight(const std::vector<const Scratch*>& scratches, Vec2d a, Vec2d du, double z0, double slope,
+                       double len, double step, double tol, HeightMeet& out);
 
 // The part with the scratches cut in. Facet normals are exact: a piece's normal is its facet's in
 // the part triangle's plane, turned with the part's interpolated normal at each vertex (so that,

@@ -880,3 +880,55 @@ TEST(ScratchGeometry, ACornersCapHandsOverToAnotherLegAlongTheirCurve) {
   EXPECT_GT(walls_hit, 20);
   EXPECT_EQ(rays_off, 0) << "of " << n << " rays (" << walls_hit << " at the wall); worst |t_mesh - t_field| " << worst;
 }
+
+// meetScratchHeight (the groove renderer's rays rising low beyond a footprint's polygons): where a
+// ray first goes below the composite height, against a fine march of the same field, and which
+// scratch's height that is.
+TEST(ScratchGeometry, ARisingRayMeetsThePileUpAheadWhereAFineMarchDoes) {
+  // Two grooves with pile-ups along u, at v = 10 and v = 10.5 (UV = mm on the plate).
+  const Profile prof = pileUpProfile();
+  const Scratch near = Scratch::fromProfile(ScratchPath::polyline({{5.0, 10.0}, {15.0, 10.0}}), prof);
+  const Scratch far = Scratch::fromProfile(ScratchPath::polyline({{5.0, 10.5}, {15.0, 10.5}}), prof);
+  const std::vector<const Scratch*> list{&near, &far};
+  int met = 0;
+  // From the plate between them, 0.5 to 3 um up, towards either, rising 0.05 to 0.5 degrees, at 0
+  // to 60 degrees from square to the grooves. (Higher, the part of a crest above the ray is
+  // narrower than the march's step, 5 um here, and the march may pass over it: from 4.5 um up,
+  // 1.6 um of the crest is above.)
+  for (int side = -1; side <= 1; side += 2)
+    for (double z0 : {0.0005, 0.002, 0.003})
+      for (double elev_deg : {0.05, 0.2, 0.5})
+        for (double turn_deg : {0.0, 30.0, 60.0}) {
+          const double turn = turn_deg * M_PI / 180, slope = std::tan(elev_deg * M_PI / 180);
+          const Vec2d a(10.0, 10.25), du(std::sin(turn), side * std::cos(turn));
+          const double len = (0.005 - z0) / slope;
+          HeightMeet m;
+          const bool hit = meetScratchHeight(list, a, du, z0, slope, len, 0.04 / 8, 1e-7, m);
+          // The fine march: the same ray in 3-D (world = uv here), 20 nm steps.
+          const Vec3d d = normalize(Vec3d(du.x, du.y, slope));
+          const double t = fieldHitOf(list, Vec3d(0, 0, 0), Vec3d(a.x, a.y, z0), d, len / std::sqrt(1 - d.z * d.z));
+          SCOPED_TRACE(::testing::Message() << "side " << side << " z0 " << z0 << " elev " << elev_deg << " turn " << turn_deg);
+          ASSERT_EQ(hit, t < 1e30);
+          if (!hit) continue;
+          ++met;
+          const double x_fine = t * std::sqrt(1 - d.z * d.z);
+          EXPECT_NEAR(m.at, x_fine, 2e-5 + 1e-7 / slope);
+          EXPECT_LT(m.from, m.at);
+          EXPECT_GE(m.from, m.at - 0.04 / 8 - 1e-9);
+          // Towards +v the far groove's pile-up, towards -v the near one's.
+          EXPECT_EQ(m.scratch, side > 0 ? &far : &near);
+        }
+  // 48 of the 54 meet one; the other six, rising 0.5 degrees (from 3 um up turned 30 or 60
+  // degrees, from 2 um up turned 60), are above the crests (5 um) before they reach them.
+  EXPECT_EQ(met, 48);
+  // Above the crests it meets nothing; along the grooves, between them, nothing either.
+  HeightMeet m;
+  EXPECT_FALSE(meetScratchHeight(list, Vec2d(10.0, 10.25), Vec2d(0.0, 1.0), 0.0051, 0.001, 5.0, 0.005, 1e-7, m));
+  EXPECT_FALSE(meetScratchHeight(list, Vec2d(10.0, 10.25), Vec2d(1.0, 0.0), 0.0001, 0.001, 5.0, 0.005, 1e-7, m));
+  // Rising out of a groove's channel along it, turned 5 degrees: it meets that groove's wall.
+  const double turn = 5 * M_PI / 180;
+  ASSERT_TRUE(meetScratchHeight(list, Vec2d(8.0, 10.0), Vec2d(std::cos(turn), std::sin(turn)), -0.015, 0.01, 2.0,
+                                0.005, 1e-7, m));
+  EXPECT_EQ(m.scratch, &near);
+  EXPECT_LT(m.at, 0.5);  // (the wall is within 0.04 mm of the centre line: 0.46 mm along)
+}

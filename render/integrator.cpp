@@ -10,6 +10,7 @@
 #include "render/groove.h"
 #include "render/groove_area.h"
 #include "render/light_pattern.h"
+#include "render/scratch_geometry.h"
 
 namespace dg {
 
@@ -219,6 +220,8 @@ class Tracer {
           max_height_ = std::max(max_height_, float(sc->referenceProfile().peakHeight()) * sc->maxScale());
           max_depth_ = std::max(max_depth_, float(sc->referenceProfile().depth()) * sc->maxScale());
           max_half_ = std::max(max_half_, float(sc->referenceProfile().halfExtent()) * sc->maxScale());
+          if (sc->maxScale() > 0)
+            min_half_ = std::min(min_half_, float(sc->referenceProfile().halfExtent()) * sc->maxScale());
         }
     grooves_ = s.groove_shading && has_scratches_;
     env_by_bsdf_ = grooves_ && !st.groove_env_light_samples && s.lights.env && s.lights.env->isConstant();
@@ -754,6 +757,7 @@ class Tracer {
       // Camera hits on scratches: the groove renderer integrates the whole footprint.
       if (depth == 0 && grooves_ && sp.uv_ok && grooved != 0) {
         if (grooved == 1 || gatherGrooves(sp, h, wo_w, sets)) {
+          setUvMap(sp, sets);
           if (has_paint_ && s_.paint->hasPeel()) setPeel(sp, paint_fp, sets);
           if (flake_lobe)
             for (GrooveSet& gs : sets) gs.frame_t = sp.dpdu;
@@ -978,8 +982,10 @@ class Tracer {
     // at their own place (flatNormal), as the explicit geometry's uncut triangles do; cut ones
     // have none. Null where there is no peel.
     const PaintVariation* paint = nullptr;
+    // The chart about F (setUvMap, at every camera hit): the peel's and pileUpAhead's.
     Vec2f uv0{0.0f, 0.0f};                      // the UV (mm) of F
     Vec2f uv_t{0.0f, 0.0f}, uv_b{0.0f, 0.0f};   // UV per mm along T and B
+    float mm_per_uv = 1.0f;                     // the chart's scale there (SurfacePoint::mm_per_uv)
     Vec3f peel_u{0.0f, 0.0f, 0.0f}, peel_v{0.0f, 0.0f, 0.0f};  // slope per unit of the UV gradient
     float paint_fp = 0.0f;  // the pixel's footprint (UV mm), which filters the peel's octaves
     // The tangent of the facets' shading frames: T, or where the camera hit drew a resolved paint
@@ -2429,7 +2435,19 @@ class Tracer {
     if (gs.bump.x == 0 && gs.bump.y == 0 && gs.bump.z == 0) return n;
     return normalize(n - (gs.bump - n * dot(n, gs.bump)));
   }
-  // Gives a camera hit's groove sets the peel (GrooveSet::paint), in each one's frame.
+  // Gives a camera hit's groove sets the chart about F (GrooveSet::uv0), in each one's frame.
+  static void setUvMap(const SurfacePoint& sp, std::vector<GrooveSet>& sets) {
+    Vec3f pu, pv;
+    dualBasis(sp, pu, pv);
+    for (GrooveSet& gs : sets) {
+      gs.uv0 = sp.uv;  // (F is the hit)
+      gs.uv_t = Vec2f(dot(gs.T, pu), dot(gs.T, pv));
+      gs.uv_b = Vec2f(dot(gs.B, pu), dot(gs.B, pv));
+      gs.mm_per_uv = sp.mm_per_uv;
+    }
+  }
+  // Gives a camera hit's groove sets the peel (GrooveSet::paint), in each one's frame (after
+  // setUvMap).
   void setPeel(const SurfacePoint& sp, float fp, std::vector<GrooveSet>& sets) const {
     Vec3f pu, pv;
     dualBasis(sp, pu, pv);
@@ -2437,9 +2455,6 @@ class Tracer {
     const Vec3f gu = inShadingPlane(sp, pu), gv = inShadingPlane(sp, pv);
     for (GrooveSet& gs : sets) {
       gs.paint = s_.paint.get();
-      gs.uv0 = sp.uv;  // (F is the hit)
-      gs.uv_t = Vec2f(dot(gs.T, pu), dot(gs.T, pv));
-      gs.uv_b = Vec2f(dot(gs.B, pu), dot(gs.B, pv));
       gs.peel_u = gu, gs.peel_v = gv;
       gs.paint_fp = fp;
     }
@@ -2609,51 +2624,167 @@ class Tracer {
     const Vec2d a2(at.x, at.y);
     const double r = 1 + q->rho * (q->t0 + dot(q->tdir, a2));
     const double b = q->b0 + dot(q->bdir, a2);
-    // The section: the groove's profile at scale r, centred on its line (offset 0), with the base
-    // plane around it.
+    // The section: the groove's profile at scale r, centred on its line, F on that line beside the
+    // point where the rays leave.
     thread_local std::vector<Vec2d> pts;
     pts.assign(q->pts->begin(), q->pts->end());
     for (Vec2d& v : pts) v = v * r;
+    thread_local GrooveSet hs;
+    soleSection(gs, a2 - q->bdir * b - gs.org, q->bdir, pts, q->layer, std::fabs(b), hs);
+    int facet = -1;
+    double t = 0;
+    if (!groove::castInto(hs.section, Vec2d(b, at.z), Vec2d(dot(Vec2d(dl.x, dl.y), q->bdir), dl.z), facet, t))
+      return Rgb(0.0f);
+    return shadeSole(hs, beyond(gs, top), facet, t, sc.escaped, d, beta, level, ls, rng, nrays);
+  }
+
+  // Where a footprint's polygons hand rays to one groove's section beyond their region
+  // (beyondRegion, beyondRise): the groove's profile `pts` (at its scale there, mm) centred on its
+  // line with the base plane around it, holding `reach` (mm) either side, in a frame of its own:
+  // B along bdir (in the footprint's (T, B)), W the surface's, T = B x W (so that B = W x T), F on
+  // the centre line at c2 (mm from the footprint's F along its T and B).
+  void soleSection(const GrooveSet& gs, Vec2d c2, Vec2d bdir, const std::vector<Vec2d>& pts,
+                   const std::vector<int>* layer, double reach, GrooveSet& hs) const {
     groove::PlacedProfile placed;
     placed.pts = &pts;
-    placed.layer = q->layer;
-    // Its frame: B along the groove's b, W the surface's, T = B x W (so that B = W x T); F on its
-    // centre line beside the point where the rays leave.
-    thread_local GrooveSet hs;
-    hs.B = normalize(gs.T * float(q->bdir.x) + gs.B * float(q->bdir.y));
+    placed.layer = layer;
+    hs.B = normalize(gs.T * float(bdir.x) + gs.B * float(bdir.y));
     hs.W = gs.W;
     hs.T = cross(hs.B, hs.W);
-    const Vec2d c2 = a2 - q->bdir * b - gs.org;  // (about F)
     hs.F = gs.F + gs.T * float(c2.x) + gs.B * float(c2.y);
     hs.one_material = gs.one_material;
     hs.frame_t = gs.frame_t;
     hs.beyond = gs.beyond;
     hs.bump = gs.bump;
-    // The peel in its frame: its F at (c2.x, c2.y) of the footprint's (T, B), its B at bdir, and
+    // The chart and the peel in its frame: its F at c2 of the footprint's (T, B), its B at bdir, and
     // its T = B x W = bdir.y T - bdir.x B.
+    hs.uv0 = gs.uv0 + gs.uv_t * float(c2.x) + gs.uv_b * float(c2.y);
+    hs.uv_b = gs.uv_t * float(bdir.x) + gs.uv_b * float(bdir.y);
+    hs.uv_t = gs.uv_t * float(bdir.y) - gs.uv_b * float(bdir.x);
+    hs.mm_per_uv = gs.mm_per_uv;
     hs.paint = gs.paint;
-    if (hs.paint) {
-      hs.uv0 = gs.uv0 + gs.uv_t * float(c2.x) + gs.uv_b * float(c2.y);
-      hs.uv_b = gs.uv_t * float(q->bdir.x) + gs.uv_b * float(q->bdir.y);
-      hs.uv_t = gs.uv_t * float(q->bdir.y) - gs.uv_b * float(q->bdir.x);
-      hs.peel_u = gs.peel_u, hs.peel_v = gs.peel_v, hs.paint_fp = gs.paint_fp;
-    }
+    if (hs.paint) hs.peel_u = gs.peel_u, hs.peel_v = gs.peel_v, hs.paint_fp = gs.paint_fp;
     hs.fp = groove::Footprint{0.0, 0.0};  // (a point portion: its weights do not use it)
-    hs.section = groove::merge({placed}, sectionExtent(std::fabs(b)));
-    int facet = -1;
-    double t = 0;
-    if (!groove::castInto(hs.section, Vec2d(b, at.z), Vec2d(dot(Vec2d(dl.x, dl.y), q->bdir), dl.z), facet, t))
-      return Rgb(0.0f);
+    hs.section = groove::merge({placed}, sectionExtent(reach));
+  }
+  // The share `weight` of the rays along d that meet facet `facet` of hs's section at t, shaded as
+  // a point portion there at the next level, with material m.
+  Rgb shadeSole(const GrooveSet& hs, const Material& m, int facet, double t, double weight, Vec3f d, Rgb beta,
+                int level, const LightSamples& ls, Rng& rng, uint64_t& nrays) const {
     groove::Portion hit;
     hit.facet = facet;
     hit.t0 = hit.t1 = t;
-    hit.weight = sc.escaped;
+    hit.weight = weight;
     thread_local std::vector<groove::Shadowing> shadow;
     shadow.resize(ls.size());
     for (size_t i = 0; i < ls.size(); ++i)
       shadow[i].reset(hs.section, Vec2d(dot(ls[i].wl, hs.B), dot(ls[i].wl, hs.W)));
-    return shadeLevel(LineGeometry{hs, hs.section, shadow}, beyond(gs, top), {hit}, -d, beta, level + 1, ls, rng,
-                      nrays);
+    return shadeLevel(LineGeometry{hs, hs.section, shadow}, m, {hit}, -d, beta, level + 1, ls, rng, nrays);
+  }
+
+  // The UV of point p of a footprint's polygons (mm along its T and B about the surface's origin).
+  static Vec2f uvAt(const GrooveSet& gs, Vec2d p) {
+    return gs.uv0 + gs.uv_t * float(p.x - gs.org.x) + gs.uv_b * float(p.y - gs.org.y);
+  }
+  // A UV direction v at the footprint in its (T, B) (the chart's map inverted; not normalised).
+  static Vec2d localDir(const GrooveSet& gs, Vec2f v) {
+    const double det = double(gs.uv_t.x) * gs.uv_b.y - double(gs.uv_b.x) * gs.uv_t.y;
+    if (!(std::fabs(det) > 0)) return Vec2d(0.0, 0.0);
+    return Vec2d((double(gs.uv_b.y) * v.x - double(gs.uv_b.x) * v.y) / det,
+                 (double(gs.uv_t.x) * v.y - double(gs.uv_t.y) * v.x) / det);
+  }
+
+  // Rays rising low from a footprint's polygons that pass over pile-ups beyond their region.
+  // The polygons hold the surface within the region; a ray that leaves it rising goes on as an
+  // ordinary ray against the flat part, which has no pile-ups. The explicit geometry's ray meets
+  // one where it comes within its height: seen at 1 degree, the foot of a corner's pile-up sent
+  // the camera's rays out at 0 to 8 degrees above the plate, and those within about 1 degree met
+  // the inner face of the same path's later leg 1 to 1.2 mm away, which mirrored the ring light
+  // into them (the corners fuzzer's c60_2, 0.651% of pixels >= 10; docs/grooves.md, "Rising over
+  // the pile-ups beyond"). pileUpAhead marches the ray from where it leaves the region over the
+  // explicit geometry's height (scratchHeight, the scratches within reach), until it is above
+  // every pile-up, and finds where it first goes below it; beyondRise shades that point on the
+  // section of the scratch whose height it is there, as beyondRegion does.
+  struct PileUp {
+    const Scratch* sc = nullptr;
+    Vec3d from;  // the ray's last sample above the surface (the polygons' (x, y, z))
+    Vec2d at;    // where it meets the surface
+  };
+  // The march's steps: an eighth of the narrowest scratch's half extent, or the reach over this many.
+  static constexpr double kMarchSteps = 2048;
+  bool pileUpAhead(const LineGeometry&, const groove::Portion&, Vec3f, const groove::Scatter&, PileUp&) const {
+    return false;
+  }
+  bool pileUpAhead(const AreaGeometry& geo, const groove::area::Portion& p, Vec3f d, const groove::area::Hits& sc,
+                   PileUp& out) const {
+    const GrooveSet& gs = geo.gs;
+    const Vec3d dl = geo.local(d);
+    const double hor = std::hypot(dl.x, dl.y);
+    if (!(sc.escaped > 0) || !(dl.z > 0) || !(hor > 0)) return false;
+    const groove::area::Piece& P = gs.surface.pieces()[size_t(p.piece)];
+    Vec3d at;
+    if (!gs.surface.exitPoint(Vec3d(sc.escaped_at.x, sc.escaped_at.y, P.plane.at(sc.escaped_at)), dl, at))
+      return false;
+    const double top = double(max_height_);
+    if (!(at.z < top)) return false;
+    const double slope = dl.z / hor;
+    const double len = (top - at.z) / slope;  // until the ray is above every pile-up (mm)
+    const double mm = gs.mm_per_uv;
+    const double step = std::max(double(min_half_) * mm / 8, len / kMarchSteps);
+    const Vec2d a(at.x, at.y), u(dl.x / hor, dl.y / hor);
+    thread_local std::vector<const Scratch*> near;
+    near.clear();
+    s_.defect_index.forEach(uvAt(gs, a + u * (0.5 * len)), float(0.5 * len / mm) + max_half_, [&](const Defect& df) {
+      if (df.cls() == DefectClass::Scratch) near.push_back(static_cast<const Scratch*>(&df));
+    });
+    if (near.empty()) return false;
+    // Below by more than a rounding of the polygons' heights against scratchHeight (they agree to
+    // about 0.03 um): where the ray leaves the region it is above the polygons.
+    const Vec2d du(double(gs.uv_t.x) * u.x + double(gs.uv_b.x) * u.y, double(gs.uv_t.y) * u.x + double(gs.uv_b.y) * u.y);
+    const Vec2f a_uv = uvAt(gs, a);
+    HeightMeet m;
+    if (!meetScratchHeight(near, Vec2d(a_uv.x, a_uv.y), du, at.z, slope, len, step,
+                           1e-3 * double(max_height_ + max_depth_), m))
+      return false;
+    out.from = Vec3d(a.x + u.x * m.from, a.y + u.y * m.from, at.z + m.from * slope);
+    out.at = a + u * m.at;
+    out.sc = m.scratch;
+    return true;
+  }
+  // The share `weight` of the rays along d that pileUpAhead found meeting a pile-up: the section
+  // of that scratch alone, straight along its tangent at its closest point to the meeting, at its
+  // scale there, in its own frame, where the ray from its last sample above meets it, shaded at the
+  // next level (soleSection). Nothing where the section misses the ray.
+  Rgb beyondRise(const AreaGeometry& geo, const Material& top, const PileUp& pu, Vec3f d, double weight, Rgb beta,
+                 int level, const LightSamples& ls, Rng& rng, uint64_t& nrays) const {
+    const GrooveSet& gs = geo.gs;
+    const PathPoint pp = pu.sc->path().closest(uvAt(gs, pu.at));
+    const float k = pu.sc->scaleAt(pp.s);
+    if (!(k > 0)) return Rgb(0.0f);
+    // The path's T and its left (the profile's +b) in the footprint's (T, B), through the chart.
+    const Vec2d t = localDir(gs, pp.tangent);
+    Vec2d b = localDir(gs, Vec2f(-pp.tangent.y, pp.tangent.x));
+    if (!(dot(t, t) > 0)) return Rgb(0.0f);
+    b = b - t * (dot(b, t) / dot(t, t));
+    const double lb = std::sqrt(dot(b, b));
+    if (!(lb > 0)) return Rgb(0.0f);
+    b = b / lb;
+    const Vec2d c = localDir(gs, pp.point - gs.uv0) + gs.org;  // the closest point
+    thread_local Profile prof;
+    prof = surfaceProfile(*pu.sc, k, gs.mm_per_uv);
+    const Vec3d dl = geo.local(d);
+    const double b0 = dot(Vec2d(pu.from.x, pu.from.y) - c, b);
+    thread_local GrooveSet hs;
+    soleSection(gs, c - gs.org, b, prof.pts, &prof.layer, std::fabs(b0), hs);
+    int facet = -1;
+    double tf = 0;
+    if (!groove::castInto(hs.section, Vec2d(b0, pu.from.z), Vec2d(dot(Vec2d(dl.x, dl.y), b), dl.z), facet, tf))
+      return Rgb(0.0f);
+    return shadeSole(hs, beyond(gs, top), facet, tf, weight, d, beta, level, ls, rng, nrays);
+  }
+  Rgb beyondRise(const LineGeometry&, const Material&, const PileUp&, Vec3f, double, Rgb, int, const LightSamples&,
+                 Rng&, uint64_t&) const {
+    return Rgb(0.0f);
   }
 
   // A direction drawn from a footprint's portions (drawDirection).
@@ -3031,13 +3162,19 @@ class Tracer {
                             nl_eff, nl_env);
         continue;
       }
+      // Rising rays that meet a pile-up beyond the polygons' region (pileUpAhead) meet no emitter.
+      PileUp pile;
+      const bool rise = sc.escaped > 0 && dot(d, gs.W) > 0;
+      const bool met = rise && pileUpAhead(geo, p, d, sc, pile);
       if (direct_only) {
-        if (sc.escaped > 0 && dot(d, gs.W) > 0)
+        if (rise && !met)
           L += beta_next * float(sc.escaped * direct_scale) *
                emitterToward(origin, d, float(nbm * p.weight / wsum) * dr.pdf, nl_eff, ls.guides, nrays);
         continue;
       }
-      if (sc.escaped > 0 && dot(d, gs.W) > 0) {
+      // (Its next level's direct light is these directions' alone, as beyondRegion's below.)
+      if (met && !last) L += beyondRise(geo, top, pile, d, sc.escaped, beta_next, level, ls, rng, nrays);
+      if (rise && !met) {
         const DiffRay r = bareRay(origin, d);
         L += continuePath(r, beta_next * float(sc.escaped), float(nbm * p.weight / wsum) * dr.pdf, false, origin,
                           1 + level, rng, nrays, nl_eff, nl_env, direct_scale * float(nb) / nbm, nullptr, 0, nullptr,
@@ -3085,7 +3222,8 @@ class Tracer {
       if (dr.through) continue;  // refracted: estimated by the continued directions alone
       Rgb beta_k = beta * dr.ratio * float(wsum / (p.weight * nm));
       const float share = float(nm) / nbm;
-      if (sc.escaped > 0 && dot(d, gs.W) > 0)
+      PileUp pile;
+      if (sc.escaped > 0 && dot(d, gs.W) > 0 && !pileUpAhead(geo, p, d, sc, pile))
         L += beta_k * float(sc.escaped * share) *
              emitterToward(origin, d, float(nbm * p.weight / wsum) * dr.pdf, nl_eff, ls.guides, nrays);
       if (bounce && !sc.hits.empty())
@@ -3347,6 +3485,7 @@ class Tracer {
   // Whether camera hits and flat groove footprints guide their light samples (buildGuides).
   bool guided_ = false;
   float max_height_ = 0, max_depth_ = 0, max_half_ = 0;  // over all scratches (mm)
+  float min_half_ = 1e30f;  // the narrowest scratch's half extent at its largest scale (uv)
   int strata_x_ = 1, strata_y_ = 1;  // a pixel's strata (grooveStrata): a camera hit's footprint is one
   float tan_light_max_ = 6.0f;  // cap on the shadow reach toward grazing lights (Bosch §4.2.1)
   std::vector<std::vector<int>> blockers_;  // findBlockers()

@@ -265,6 +265,38 @@ LAYOUTS = {
     hardness_hv: 20
     perturbation: 0.15
 """,
+    # Two scratches given point by point and two straight ones across them (the corners fuzzer's
+    # c60_2, drawn as it drew them at the default seed; its test looks at one spot of it, look_at):
+    # the second path, cut by a tool tilted 11 degrees, turns 145 degrees at (-0.43, 0.10) mm, and
+    # a later leg of it runs 1 to 1.2 mm beyond the foot of that corner's pile-up.
+    "rise60": """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5058, 0.5170]
+    path_mm: [2.1637, 3.2680, 0.1984, -0.2159, 0.0855, -0.1129, 0.5257, -1.3208, 0.6729, -2.4379, 3.0505, 0.7788, 2.3707, -3.1630]
+    force_kg: 1.58
+    hardness_hv: 20
+    perturbation: 0.15
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5053, 0.5024]
+    path_mm: [-2.2396, -3.0963, -0.0607, 0.2581, -0.4363, 0.1045, -0.7810, 0.1463, -1.5010, 0.4079, 1.3619, 3.2014, 3.5139, -0.1703]
+    force_kg: 2.38
+    hardness_hv: 30
+    tool_tilt_deg: 11
+    tool_tilt_azimuth_deg: 291
+  - type: scratch
+    count: 2
+    orientation_deg: {uniform: [0, 180]}
+    length_mm: 4.0
+    force_kg: 3.75
+    hardness_hv: 30
+    region: [0.4905, 0.4905, 0.5095, 0.5095]
+""",
     # Two deep scratches side by side whose arcs bend opposite ways (the lines fuzzer's l58_6,
     # drawn as it drew them; its test looks at one spot of it, look_at): the angle between them
     # grows by 3 degrees per mm along them, so in a view 0.5 mm across they are merged as parallel

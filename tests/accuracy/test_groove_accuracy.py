@@ -434,7 +434,8 @@ class GrooveAccuracy(unittest.TestCase):
         Before rising rays were marched over the pile-ups beyond the polygons' region
         (pileUpAhead), they went on as ordinary rays against the flat part and met nothing: a dark
         strip along the foot, 0.781% of pixels >= 10 (mean 0.694); now 0% (0.575). (A crop of the
-        spot seen straight down from 30 mm did not show it: the view there turns by 0.4 degrees.)"""
+        spot seen from 30 mm did not show it: the ring sits round the lens, and from 30 mm its light
+        comes from 34 to 45 degrees off the normal, not 18 to 27.)"""
         self.check("rise60", "ring", fov_deg=1, resolution=48, spp=8)
 
     def test_cluster_twelve_radii_bar(self):

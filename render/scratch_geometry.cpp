@@ -17,18 +17,7 @@
 
 namespace dg {
 
-float scratchHeight(const std::vector<const Scratch*>& scratches, Vec2f p) {
-  float lowest = 0, highest = 0;
-  for (const Scratch* s : scratches) {
-    if (!s->support().contains(p)) continue;
-    float h = s->height(p);
-    lowest = std::min(lowest, h);
-    highest = std::max(highest, h);
-  }
-  return lowest < 0 ? lowest : highest;
-}
-
-const Scratch* scratchAt(const std::vector<const Scratch*>& scratches, Vec2f p) {
+float scratchHeight(const std::vector<const Scratch*>& scratches, Vec2f p, const Scratch** which) {
   float lowest = 0, highest = 0;
   const Scratch *low = nullptr, *high = nullptr;
   for (const Scratch* s : scratches) {
@@ -37,7 +26,8 @@ const Scratch* scratchAt(const std::vector<const Scratch*>& scratches, Vec2f p) 
     if (h < lowest) lowest = h, low = s;
     if (h > highest) highest = h, high = s;
   }
-  return low ? low : high;
+  if (which) *which = low ? low : high;
+  return lowest < 0 ? lowest : highest;
 }
 
 bool meetScratchHeight(const std::vector<const Scratch*>& scratches, Vec2d a, Vec2d du, double z0, double slope,
@@ -60,7 +50,7 @@ bool meetScratchHeight(const std::vector<const Scratch*>& scratches, Vec2d a, Ve
     (below(mid) ? hi : lo) = mid;
   }
   out.at = hi;
-  out.scratch = scratchAt(scratches, uvOf(hi));
+  scratchHeight(scratches, uvOf(hi), &out.scratch);
   return out.scratch != nullptr;
 }
 

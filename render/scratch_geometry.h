@@ -50,11 +50,10 @@ struct ScratchGeometryStats {
   double cell_mm = 0;
 };
 
-// Composite height (mm, along the outward normal) of the scratches at UV point p.
-float scratchHeight(const std::vector<const Scratch*>& scratches, Vec2f p);
-// The scratch whose height scratchHeight gives at p (the lowest cut, else the highest pile-up);
-// null where none has a height there.
-const Scratch* scratchAt(const std::vector<const Scratch*>& scratches, Vec2f p);
+// Composite height (mm, along the outward normal) of the scratches at UV point p: the lowest cut,
+// else the highest pile-up. `which` (optional) gets the scratch whose height that is, null where
+// none has a height there.
+float scratchHeight(const std::vector<const Scratch*>& scratches, Vec2f p, const Scratch** which = nullptr);
 
 // Where a ray over the part first goes below the scratches' composite height (scratchHeight): the
 // ray at height z0 + slope x over the UV line a + du x, for x from 0 to len (du: UV per unit of x),
@@ -65,7 +64,7 @@ const Scratch* scratchAt(const std::vector<const Scratch*>& scratches, Vec2f p);
 struct HeightMeet {
   double from = 0;  // the last sample above (x)
   double at = 0;    // where the ray goes below (x)
-  const Scratch* scratch = nullptr;  // whose height that is there (scratchAt)
+  const Scratch* scratch = nullptr;  // whose height that is there (scratchHeight's `which`)
 };
 bool meetScratchHeight(const std::vector<const Scratch*>& scratches, Vec2d a, Vec2d du, double z0, double slope,
                        double len, double step, double tol, HeightMeet& out);

@@ -266,7 +266,7 @@ LAYOUTS = {
     perturbation: 0.15
 """,
     # Two scratches given point by point and two straight ones across them (the corners fuzzer's
-    # c60_2, drawn as it drew them at the default seed; its test looks at one spot of it, look_at):
+    # c60_2, drawn as it drew them at the default seed; its test sees the fuzzer's whole view):
     # the second path, cut by a tool tilted 11 degrees, turns 145 degrees at (-0.43, 0.10) mm, and
     # a later leg of it runs 1 to 1.2 mm beyond the foot of that corner's pile-up.
     "rise60": """

@@ -256,8 +256,10 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
   const double merge = 4.0 * std::max({std::fabs(lo.x), std::fabs(lo.y), std::fabs(hi.x), std::fabs(hi.y)}) *
                        double(std::numeric_limits<float>::epsilon());
   // Heights come from float UVs: differences below jump_tol are rounding, not a jump; the height
-  // beyond an edge is sampled jump_step and twice that outside it.
+  // beyond an edge is sampled jump_step and twice that outside it. Two samples that differ by more
+  // than kStraddle * jump_tol (a slope of 16, 86 degrees, over jump_step) have a jump between them.
   const double jump_tol = 16.0 * merge, jump_step = 4.0 * merge;
+  constexpr double kStraddle = 4.0;
 
   // Does some scratch's cross-section reach into the UV box? (With kinks_only, into a kink line
   // of it: a profile vertex's offset, or an end.)
@@ -858,7 +860,16 @@ TriangleMesh scratchedMesh(const TriangleMesh& part, const std::vector<const Scr
               if (!(ln > 0)) continue;
               n = n / ln;
               if ((mid.x - c.x) * n.x + (mid.y - c.y) * n.y < 0) n = n * -1.0;
-              auto beyond = [&](Vec2d q) { return 2.0 * heightAt(q + n * jump_step) - heightAt(q + n * (2.0 * jump_step)); };
+              // Where the two samples straddle another jump (a slot narrower than a few hundred
+              // nanometres runs alongside the edge: a scratch faded nearly to nothing through a
+              // pile-up), the line through them would reach as far above the far side as the slot
+              // is deep, and the wall would stand up as a fin above the surface (22 um above a
+              // pile-up in the clusters fuzzer's c62_5). There the nearer sample is the height
+              // beyond, within its slope times jump_step of it.
+              auto beyond = [&](Vec2d q) {
+                const double h1 = heightAt(q + n * jump_step), h2 = heightAt(q + n * (2.0 * jump_step));
+                return std::fabs(h1 - h2) > kStraddle * jump_tol ? h1 : 2.0 * h1 - h2;
+              };
               bool chord = false;  // (values are read after the merge above, which keeps them)
               for (size_t fi = h_lo; fi < h_hi && !chord; ++fi) chord = poly[k].f[fi] == 0 && poly[k1].f[fi] == 0;
               const Vec2d a1 = a + (b - a) * 0.01, b1 = b + (a - b) * 0.01;

@@ -715,7 +715,7 @@ defects:
         # once its size is known, before it is copied out and given a BVH ...
         cut = self.config(d, C29_FINE_SCRATCH, "cut.yaml")
         self.expect_error(["generate", cut, "--out", out, "--quiet"], "cut.yaml:8:51: 'render.scratches': geometry: "
-                          "the cut mesh of 7106998 triangles would need about 1.8 GiB, more than the", out=out,
+                          "the cut mesh of 7106964 triangles would need about 1.8 GiB, more than the", out=out,
                           address_space=7 << 28)
         # ... and what no check foresees (here the cutting itself) ends in one message too.
         self.expect_error(["generate", cut, "--out", out, "--quiet"], "generate ran out of memory (ulimit -v: 1.5 GiB)",

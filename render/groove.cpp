@@ -689,7 +689,7 @@ Scatter scatter(const Section& s, const Portion& p, const Footprint& fp, Vec2d d
   return out;
 }
 
-bool castInto(const Section& s, Vec2d P, Vec2d d, int& facet, double& t) {
+bool castInto(const Section& s, Vec2d P, Vec2d d, int& facet, double& t, double* ray_s) {
   // Every facet is tested: this runs for the few rays that leave a polygon region downwards, and
   // firstHit's ordered scan needs a start on a facet.
   double best = kInf;
@@ -702,6 +702,7 @@ bool castInto(const Section& s, Vec2d P, Vec2d d, int& facet, double& t) {
     facet = int(j);
     t = u;
   }
+  if (ray_s && facet >= 0) *ray_s = best;
   return facet >= 0;
 }
 

@@ -166,7 +166,8 @@ Vec2d pointOn(const Section& s, int k, double t);
 // parameter t of the hit on it. False when it meets none (a ray that rises away). P is meant to lie
 // in the open space above the section; from inside the solid the backs of the facets are passed
 // through. The area sampling hands rays that leave its region down a groove to that groove's
-// section this way (the integrator's beyondRegion).
-bool castInto(const Section& s, Vec2d P, Vec2d d, int& facet, double& t);
+// section this way (the integrator's beyondRegion). `ray_s` (where given) gets the ray's
+// parameter there: the hit is P + ray_s d.
+bool castInto(const Section& s, Vec2d P, Vec2d d, int& facet, double& t, double* ray_s = nullptr);
 
 }  // namespace dg::groove

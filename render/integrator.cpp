@@ -2632,10 +2632,55 @@ class Tracer {
     thread_local GrooveSet hs;
     soleSection(gs, a2 - q->bdir * b - gs.org, q->bdir, pts, q->layer, std::fabs(b), hs);
     int facet = -1;
-    double t = 0;
-    if (!groove::castInto(hs.section, Vec2d(b, at.z), Vec2d(dot(Vec2d(dl.x, dl.y), q->bdir), dl.z), facet, t))
-      return Rgb(0.0f);
+    double t = 0, s_hit = 0;
+    const bool hit =
+        groove::castInto(hs.section, Vec2d(b, at.z), Vec2d(dot(Vec2d(dl.x, dl.y), q->bdir), dl.z), facet, t, &s_hit);
+    // The section runs on straight and without end, beside a flat plate, but the path may turn or
+    // end, and other scratches may stand in the way or cut it, before the ray gets there: rays
+    // leaving over the plate beside a groove, nearly along it, went on in its section to the plate
+    // 0.5 to 1 mm on, past the half turn that ends the groove's leg, where the section's pile-up
+    // beside them (which is not there) mirrored a low bar light into them (the corners fuzzer's
+    // c68_4; docs/grooves.md, "Past the end of a groove's leg"). So the ray is marched over the
+    // explicit geometry's height (scratchHeight) until it is below every groove's floor; where the
+    // section's hit lies past the ends of the groove's leg (Groove::t_lo, t_hi) or outside its
+    // domain, or the section has none, or the march meets the surface away from it (by more than
+    // kSoleSlack of its distance and two steps), the surface the march meets is taken: a
+    // scratch's, as beyondRise shades it, or the plain part's, by an ordinary ray from the march's
+    // last sample above. A meeting in the march's first two steps, where the ray leaves the
+    // polygons within their agreement with scratchHeight, keeps the section, and so does the plain
+    // part met from below the base by more than the march's tolerance (an abrupt end's wall, which
+    // no section holds).
+    const double hor = std::hypot(dl.x, dl.y);
+    if (dl.z < 0 && hor > 0) {
+      PileUp pu;
+      double step = 0;
+      if (marchAhead(gs, at, dl, (at.z + double(max_depth_)) / -dl.z, pu, true, &step)) {
+        const double x_m = std::hypot(pu.at.x - at.x, pu.at.y - at.y), x_h = s_hit * hor;
+        const bool on_leg = hit && onLeg(*q, a2 + Vec2d(dl.x, dl.y) * s_hit);
+        const double tol = 1e-3 * double(max_height_ + max_depth_);  // (the march's)
+        if (x_m > 2 * step && (pu.sc || pu.from.z > -2 * tol) &&
+            (!on_leg || std::fabs(x_m - x_h) > kSoleSlack * x_h + 2 * step)) {
+          if (pu.sc) return beyondRise(geo, top, pu, d, sc.escaped, beta, level, ls, rng, nrays);
+          // (From no lower than the march's tolerance above the plate: the part's own surface.)
+          const Vec3f from = gs.F + gs.T * float(pu.from.x - gs.org.x) + gs.B * float(pu.from.y - gs.org.y) +
+                             gs.W * float(std::max(pu.from.z, tol));
+          return continuePath(bareRay(from, d), beta * float(sc.escaped), 0.0f, true, from, 1 + level, rng, nrays,
+                              1.0f, 1.0f);
+        }
+      }
+    }
+    if (!hit) return Rgb(0.0f);
     return shadeSole(hs, beyond(gs, top), facet, t, sc.escaped, d, beta, level, ls, rng, nrays);
+  }
+  static constexpr double kSoleSlack = 0.05;
+  // Whether point p (the footprint's T, B) lies within groove g's length (t_lo, t_hi) and its
+  // domain (a corner's part).
+  static bool onLeg(const groove::area::Groove& g, Vec2d p) {
+    const double t = g.t0 + dot(g.tdir, p);
+    if (!(t >= g.t_lo && t <= g.t_hi)) return false;
+    for (int k = 0; k < g.n_dom; ++k)
+      if (!g.dom[k].holds(p)) return false;
+    return true;
   }
 
   // Where a footprint's polygons hand rays to one groove's section beyond their region
@@ -2719,18 +2764,30 @@ class Tracer {
                    PileUp& out) const {
     const GrooveSet& gs = geo.gs;
     const Vec3d dl = geo.local(d);
-    const double hor = std::hypot(dl.x, dl.y);
-    if (!(sc.escaped > 0) || !(dl.z > 0) || !(hor > 0)) return false;
+    if (!(sc.escaped > 0) || !(dl.z > 0)) return false;
     const groove::area::Piece& P = gs.surface.pieces()[size_t(p.piece)];
     Vec3d at;
     if (!gs.surface.exitPoint(Vec3d(sc.escaped_at.x, sc.escaped_at.y, P.plane.at(sc.escaped_at)), dl, at))
       return false;
     const double top = double(max_height_);
     if (!(at.z < top)) return false;
+    return marchAhead(gs, at, dl, (top - at.z) / dl.z, out);  // until the ray is above every pile-up
+  }
+  // Where the ray at + s dl (the polygons' local frame, mm) first goes below the explicit
+  // geometry's height (scratchHeight of the scratches within reach) for s in (0, s_max]: marched
+  // in steps of an eighth of the narrowest scratch's half extent, or the whole over kMarchSteps,
+  // where that is more (`step_out`, where given, gets it). False where it stays above, or dl is
+  // (nearly) vertical, or (without `plain`) it meets the plain part, where no scratch has a
+  // height; with `plain` such a meeting counts, out.sc null.
+  bool marchAhead(const GrooveSet& gs, Vec3d at, Vec3d dl, double s_max, PileUp& out, bool plain = false,
+                  double* step_out = nullptr) const {
+    const double hor = std::hypot(dl.x, dl.y);
+    if (!(hor > 0) || !(s_max > 0)) return false;
     const double slope = dl.z / hor;
-    const double len = (top - at.z) / slope;  // until the ray is above every pile-up (mm)
+    const double len = s_max * hor;  // (mm along the plate)
     const double mm = gs.mm_per_uv;
     const double step = std::max(double(min_half_) * mm / 8, len / kMarchSteps);
+    if (step_out) *step_out = step;
     const Vec2d a(at.x, at.y), u(dl.x / hor, dl.y / hor);
     thread_local std::vector<const Scratch*> near;
     near.clear();
@@ -2744,7 +2801,7 @@ class Tracer {
     const Vec2f a_uv = uvAt(gs, a);
     HeightMeet m;
     if (!meetScratchHeight(near, Vec2d(a_uv.x, a_uv.y), du, at.z, slope, len, step,
-                           1e-3 * double(max_height_ + max_depth_), m))
+                           1e-3 * double(max_height_ + max_depth_), m, plain))
       return false;
     out.from = Vec3d(a.x + u.x * m.from, a.y + u.y * m.from, at.z + m.from * slope);
     out.at = a + u * m.at;

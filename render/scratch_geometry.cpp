@@ -31,7 +31,7 @@ float scratchHeight(const std::vector<const Scratch*>& scratches, Vec2f p, const
 }
 
 bool meetScratchHeight(const std::vector<const Scratch*>& scratches, Vec2d a, Vec2d du, double z0, double slope,
-                       double len, double step, double tol, HeightMeet& out) {
+                       double len, double step, double tol, HeightMeet& out, bool plain) {
   if (!(step > 0) || !(len > 0)) return false;
   auto uvOf = [&](double x) { return Vec2f(float(a.x + du.x * x), float(a.y + du.y * x)); };
   auto below = [&](double x) { return z0 + slope * x < double(scratchHeight(scratches, uvOf(x))) - tol; };
@@ -51,7 +51,7 @@ bool meetScratchHeight(const std::vector<const Scratch*>& scratches, Vec2d a, Ve
   }
   out.at = hi;
   scratchHeight(scratches, uvOf(hi), &out.scratch);
-  return out.scratch != nullptr;
+  return plain || out.scratch != nullptr;
 }
 
 namespace {

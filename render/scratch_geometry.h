@@ -60,14 +60,16 @@ float scratchHeight(const std::vector<const Scratch*>& scratches, Vec2f p, const
 // sampled every `step` of x from x = step on. Below means by more than tol. Between the last sample
 // above and the first below it is refined by bisection to step / 1024. A feature narrower than a
 // step can be passed over. The groove renderer's rays that rise low out of a footprint's polygons
-// (docs/grooves.md, "Rising over the pile-ups beyond").
+// (docs/grooves.md, "Rising over the pile-ups beyond") and that leave them downwards ("Past the end
+// of a groove's leg"). False where it stays above, and (without `plain`) where it meets the
+// plain part, where no scratch has a height; with `plain` that meeting counts, out.scratch null.
 struct HeightMeet {
   double from = 0;  // the last sample above (x)
   double at = 0;    // where the ray goes below (x)
   const Scratch* scratch = nullptr;  // whose height that is there (scratchHeight's `which`)
 };
 bool meetScratchHeight(const std::vector<const Scratch*>& scratches, Vec2d a, Vec2d du, double z0, double slope,
-                       double len, double step, double tol, HeightMeet& out);
+                       double len, double step, double tol, HeightMeet& out, bool plain = false);
 
 // The part with the scratches cut in. Facet normals are exact: a piece's normal is its facet's in
 // the part triangle's plane, turned with the part's interpolated normal at each vertex (so that,

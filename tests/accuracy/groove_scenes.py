@@ -297,6 +297,31 @@ LAYOUTS = {
     hardness_hv: 30
     region: [0.4905, 0.4905, 0.5095, 0.5095]
 """,
+    # Two scratches given point by point (the corners fuzzer's c68_4, drawn as it drew them at the
+    # default seed; its test sees the fuzzer's whole view): the second crosses the first's tilted
+    # groove on a leg that a turn of 148 degrees ends 0.8 mm on, up and to the left, beyond the
+    # view, where the rays leaving the first's pile-up nearly along that leg meet only the plate.
+    "channel68": """
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.4880, 0.5106]
+    path_mm: [2.9703, 2.7953, 0.2348, -0.1231, 0.1008, -1.3858, -0.9550, -2.0438, -1.8586, 1.8528]
+    force_kg: 2.08
+    hardness_hv: 30
+    tool_tilt_deg: 29
+    tool_tilt_azimuth_deg: 5
+    pileup: 0.25
+  - type: scratch
+    count: 1
+    pattern: path
+    curve: polyline
+    center: [0.5141, 0.4990]
+    path_mm: [-2.8064, -2.7854, 0.1262, -0.0652, -0.6019, 0.9295, -0.5868, 0.6991, -4.5202, 1.4259]
+    force_kg: 1.47
+    hardness_hv: 60
+""",
     # Two deep scratches side by side whose arcs bend opposite ways (the lines fuzzer's l58_6,
     # drawn as it drew them; its test looks at one spot of it, look_at): the angle between them
     # grows by 3 degrees per mm along them, so in a view 0.5 mm across they are merged as parallel

@@ -965,3 +965,29 @@ TEST(ScratchGeometry, ARisingRayMeetsThePileUpAheadWhereAFineMarchDoes) {
   EXPECT_EQ(m.scratch, &near);
   EXPECT_LT(m.at, 0.5);  // (the wall is within 0.04 mm of the centre line: 0.46 mm along)
 }
+
+// The march of rays that leave the polygons downwards (the integrator's beyondRegion): past the
+// end of a groove's leg its straight section has a channel and pile-ups that are not there. Over
+// the plate beside the groove the ray meets the plain part, and down its channel the end's wall
+// (an abrupt end: the plain part beyond); both count only with `plain` (no scratch's height there).
+TEST(ScratchGeometry, ADescendingRayMeetsThePlainPartPastAGroovesEnd) {
+  const Scratch groove = Scratch::fromProfile(ScratchPath::polyline({{5.0, 10.0}, {10.0, 10.0}}), pileUpProfile());
+  const std::vector<const Scratch*> list{&groove};
+  HeightMeet m;
+  // In the channel, 10 um below the plate, along it and falling 1 um per mm: the end's wall, 1 mm on.
+  EXPECT_FALSE(meetScratchHeight(list, Vec2d(9.0, 10.0), Vec2d(1.0, 0.0), -0.01, -0.001, 3.0, 0.005, 1e-7, m));
+  ASSERT_TRUE(meetScratchHeight(list, Vec2d(9.0, 10.0), Vec2d(1.0, 0.0), -0.01, -0.001, 3.0, 0.005, 1e-7, m, true));
+  EXPECT_EQ(m.scratch, nullptr);
+  EXPECT_NEAR(m.at, 1.0, 1e-5);
+  // Over the plate 0.06 mm beside it (past the pile-up's foot at 0.04), 2 um up: the plate at 2 mm,
+  // 1 mm past the end.
+  EXPECT_FALSE(meetScratchHeight(list, Vec2d(9.0, 10.06), Vec2d(1.0, 0.0), 0.002, -0.001, 3.0, 0.005, 1e-7, m));
+  ASSERT_TRUE(meetScratchHeight(list, Vec2d(9.0, 10.06), Vec2d(1.0, 0.0), 0.002, -0.001, 3.0, 0.005, 1e-7, m, true));
+  EXPECT_EQ(m.scratch, nullptr);
+  EXPECT_NEAR(m.at, 2.0, 1e-3);
+  // Beside the groove, 1 um above its pile-up's crest (5 um, 0.03 from the centre line), falling
+  // 1 um per mm: the crest, before the end.
+  ASSERT_TRUE(meetScratchHeight(list, Vec2d(8.0, 10.03), Vec2d(1.0, 0.0), 0.006, -0.001, 3.0, 0.005, 1e-7, m, true));
+  EXPECT_EQ(m.scratch, &groove);
+  EXPECT_NEAR(m.at, 1.0, 0.01);
+}

@@ -322,13 +322,6 @@ double grooveHeight(const Groove& g, Vec2d p) {
   return q1.x > q0.x ? r * (q0.y + (q1.y - q0.y) * (u - q0.x) / (q1.x - q0.x)) : r * q0.y;
 }
 
-// Whether part q's domain holds p.
-bool inDomain(const Groove& q, Vec2d p) {
-  for (int k = 0; k < q.n_dom; ++k)
-    if (!q.dom[k].holds(p)) return false;
-  return true;
-}
-
 // The part of a corner's groove whose domain holds p (the first, on a boundary), or null.
 const Groove* partAt(const Groove& g, Vec2d p) {
   for (const Groove& q : *g.parts)
@@ -337,6 +330,12 @@ const Groove* partAt(const Groove& g, Vec2d p) {
 }
 
 }  // namespace
+
+bool inDomain(const Groove& q, Vec2d p) {
+  for (int k = 0; k < q.n_dom; ++k)
+    if (!q.dom[k].holds(p)) return false;
+  return true;
+}
 
 void Surface::indexParts(const Poly& region) {
   part_index_.resize(std::max(part_index_.size(), grooves_.size()));

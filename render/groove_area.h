@@ -121,6 +121,9 @@ struct Groove {
   HalfPlane split;
 };
 
+// Whether part q's domain (its `dom` half-planes; none for a plain groove) holds p.
+bool inDomain(const Groove& q, Vec2d p);
+
 // The parts of a groove that turns a corner at the point where `in` ends and `out` starts: `in`
 // along the path before the corner, with t = 0 at the vertex (t_hi = 0), `out` after it (t_lo =
 // 0, t = 0 at the vertex), each with its own frame, the same profile (the one at the vertex: r = 1

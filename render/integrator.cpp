@@ -2657,7 +2657,7 @@ class Tracer {
       if (marchAhead(gs, at, dl, (at.z + double(max_depth_)) / -dl.z, pu, true, &step)) {
         const double x_m = std::hypot(pu.at.x - at.x, pu.at.y - at.y), x_h = s_hit * hor;
         const bool on_leg = hit && onLeg(*q, a2 + Vec2d(dl.x, dl.y) * s_hit);
-        const double tol = 1e-3 * double(max_height_ + max_depth_);  // (the march's)
+        const double tol = marchTol();
         if (x_m > 2 * step && (pu.sc || pu.from.z > -2 * tol) &&
             (!on_leg || std::fabs(x_m - x_h) > kSoleSlack * x_h + 2 * step)) {
           if (pu.sc) return beyondRise(geo, top, pu, d, sc.escaped, beta, level, ls, rng, nrays);
@@ -2677,10 +2677,7 @@ class Tracer {
   // domain (a corner's part).
   static bool onLeg(const groove::area::Groove& g, Vec2d p) {
     const double t = g.t0 + dot(g.tdir, p);
-    if (!(t >= g.t_lo && t <= g.t_hi)) return false;
-    for (int k = 0; k < g.n_dom; ++k)
-      if (!g.dom[k].holds(p)) return false;
-    return true;
+    return t >= g.t_lo && t <= g.t_hi && groove::area::inDomain(g, p);
   }
 
   // Where a footprint's polygons hand rays to one groove's section beyond their region
@@ -2773,6 +2770,9 @@ class Tracer {
     if (!(at.z < top)) return false;
     return marchAhead(gs, at, dl, (top - at.z) / dl.z, out);  // until the ray is above every pile-up
   }
+  // How far below scratchHeight the march's ray must go to meet it: a rounding of the polygons'
+  // heights against it (they agree to about 0.03 um), a thousandth of the scratches' height range.
+  double marchTol() const { return 1e-3 * double(max_height_ + max_depth_); }
   // Where the ray at + s dl (the polygons' local frame, mm) first goes below the explicit
   // geometry's height (scratchHeight of the scratches within reach) for s in (0, s_max]: marched
   // in steps of an eighth of the narrowest scratch's half extent, or the whole over kMarchSteps,
@@ -2795,13 +2795,11 @@ class Tracer {
       if (df.cls() == DefectClass::Scratch) near.push_back(static_cast<const Scratch*>(&df));
     });
     if (near.empty()) return false;
-    // Below by more than a rounding of the polygons' heights against scratchHeight (they agree to
-    // about 0.03 um): where the ray leaves the region it is above the polygons.
+    // (Below by more than marchTol: where the ray leaves the region it is above the polygons.)
     const Vec2d du(double(gs.uv_t.x) * u.x + double(gs.uv_b.x) * u.y, double(gs.uv_t.y) * u.x + double(gs.uv_b.y) * u.y);
     const Vec2f a_uv = uvAt(gs, a);
     HeightMeet m;
-    if (!meetScratchHeight(near, Vec2d(a_uv.x, a_uv.y), du, at.z, slope, len, step,
-                           1e-3 * double(max_height_ + max_depth_), m, plain))
+    if (!meetScratchHeight(near, Vec2d(a_uv.x, a_uv.y), du, at.z, slope, len, step, marchTol(), m, plain))
       return false;
     out.from = Vec3d(a.x + u.x * m.from, a.y + u.y * m.from, at.z + m.from * slope);
     out.at = a + u * m.at;

@@ -197,7 +197,7 @@ void ScratchPath::keepRetracesAlike(size_t a, size_t b, std::vector<char>& keep)
 
 bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, double growth, double min_stray,
                               size_t max_bends, double max_dev, std::vector<Corner>& out,
-                              std::pair<double, double>& span) const {
+                              std::pair<double, double>& span, double near) const {
   out.clear();
   // The window: from s's segment out to the first vertex on each side beyond `reach`.
   const size_t last = pts_.size() - 1;
@@ -217,19 +217,42 @@ bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, doubl
   for (int round = 0; round <= 16; ++round, (growth > 0 ? growth : dp_tol) *= 2) {
     keep.assign(pts_.size(), 0);
     simplifyBy(pts_, a, b, [&](size_t i) { return dp_tol + growth * len2(pts_[i] - p); }, keep);
-    // The kept leg that holds s's segment, where it turns from that segment by more than max_dev:
-    // the segment's own ends as well.
-    size_t lo = seg, hi = seg + 1;
-    while (lo > a && !keep[lo]) --lo;
-    while (hi < b && !keep[hi]) ++hi;
-    const Vec2d dl = pts_[hi] - pts_[lo], ds = pts_[seg + 1] - pts_[seg];
-    if (std::fabs(std::atan2(cross(dl, ds), dot(dl, ds))) > max_dev) {
-      if (seg > a) keep[seg] = 1;
-      if (seg + 1 < b) keep[seg + 1] = 1;
+    // The kept leg that holds segment j, where it turns from that segment by more than max_dev:
+    // the segment's own ends as well. Returns whether it kept one.
+    auto holdDirection = [&](size_t j) {
+      size_t lo = j, hi = j + 1;
+      while (lo > a && !keep[lo]) --lo;
+      while (hi < b && !keep[hi]) ++hi;
+      const Vec2d dl = pts_[hi] - pts_[lo], ds = pts_[j + 1] - pts_[j];
+      if (!(std::fabs(std::atan2(cross(dl, ds), dot(dl, ds))) > max_dev)) return false;
+      bool added = false;
+      if (j > a && !keep[j]) keep[j] = 1, added = true;
+      if (j + 1 < b && !keep[j + 1]) keep[j + 1] = 1, added = true;
+      return added;
+    };
+    holdDirection(seg);
+    auto countKept = [&] {
+      size_t n = 0;
+      for (size_t i = a + 1; i < b; ++i) n += keep[i] != 0;
+      return n;
+    };
+    // The segments near p as well (near > 0), while the bends stay within max_bends. Keeping a
+    // vertex splits a leg into chords that may turn from their segments anew, so until none does
+    // (each pass keeps at least one more vertex of the window, or stops).
+    if (near > 0 && countKept() <= max_bends) {
+      thread_local std::vector<char> before;
+      before = keep;
+      const double d_max = segDist(p, pts_[seg], pts_[seg + 1]) + near;
+      bool added = true;
+      while (added) {
+        added = false;
+        for (size_t j = a; j < b; ++j)
+          if (segDist(p, pts_[j], pts_[j + 1]) <= d_max) added = holdDirection(j) || added;
+      }
+      if (countKept() > max_bends) keep = before;
     }
     keepRetracesAlike(a, b, keep);
-    size_t kept = 0;
-    for (size_t i = a + 1; i < b; ++i) kept += keep[i] != 0;
+    const size_t kept = countKept();
     if (kept == 0) return false;
     if (kept > max_bends) continue;
     size_t prev = a;

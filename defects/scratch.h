@@ -132,11 +132,16 @@ class ScratchPath {
   // are kept as such where their legs are straight), and `span` the window's arc range. Where the
   // kept leg over s's own segment turns from that segment by more than max_dev (radians), the
   // segment's two ends are kept too, so that the leg at p has the path's own direction: a wall's
-  // glint moves along a curve with its direction. Where more than max_bends are kept, growth is
-  // doubled (tol where growth is 0), up to 16 times, so that the path stays as close near p.
-  // False (out cleared) where no vertex is kept, or past that.
+  // glint moves along a curve with its direction. With near > 0 the same holds for every segment
+  // within near of p beyond s's own segment's distance (the segments that are the closest to
+  // some point of a footprint of radius near / 2 about p): inside a tight curve the borders
+  // between the legs' walls (their angle bisectors) then stand where the path's own do, as long
+  // as that keeps no more than max_bends (else only s's segment is held so). Where more than
+  // max_bends are kept, growth is doubled (tol where growth is 0), up to 16 times, so that the
+  // path stays as close near p. False (out cleared) where no vertex is kept, or past that.
   bool bendsAround(double s, Vec2d p, double reach, double tol, double growth, double min_stray, size_t max_bends,
-                   double max_dev, std::vector<Corner>& out, std::pair<double, double>& span) const;
+                   double max_dev, std::vector<Corner>& out, std::pair<double, double>& span,
+                   double near = 0) const;
 
  private:
   void finish();  // arc lengths, box, float copy, segment grid

@@ -1567,6 +1567,14 @@ class Tracer {
   // segment's ends are bends too (bendsAround): a groove wall's glint moves along a curve with its
   // direction (the accuracy test's `loop` under the bar: 0.141% of pixels >= 10 without, 0.043%).
   static constexpr double kBendDev = 1.0 * M_PI / 180.0;
+  // And so do the segments within kBendNear footprint radii of the footprint beyond the closest
+  // point's (bendsAround's `near`): inside a tight curl the footprint sees the walls of the legs
+  // beside its own, and where a simplified chord stood for them the border between two legs'
+  // walls (their angle bisector) turned with it. In the passes fuzzer's p75_0 (a cubic's tip of
+  // radius 0.11 mm, seen from inside at 1 degree) a chord over three segments, 7 degrees off the
+  // one beside the footprint's, moved that border 4 um and stood its wall's glint where the
+  // path's own walls have none (docs/grooves.md, "Bends").
+  static constexpr double kBendNear = 2.0;
   // The corners cornerGroove takes for ng: `at` the one cornerAround gives, [lo, hi] the chain
   // around it (on along the path both ways while the next corner is within `reach` of the
   // footprint's centre F, at most kMaxChain; the one corner alone where the path has faded out at
@@ -1914,7 +1922,7 @@ class Tracer {
       // a tight curl stands a straight groove over it.
       for (size_t max_bends = kMaxBends; max_bends >= kMinBends && !bent[i]; max_bends /= 2) {
         if (!path.bendsAround(double(ng.pp.s), F, corner_reach, kBendTol * fp_uv, kBendGrowth, min_stray, max_bends,
-                              kBendDev, bends, span))
+                              kBendDev, bends, span, kBendNear * fp_uv))
           break;
         // Just the corners chainRange found: those.
         bool same = has_corner[i] && bends.size() == chain[i][2] - chain[i][1] + 1;

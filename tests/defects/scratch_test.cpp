@@ -855,6 +855,69 @@ TEST(ScratchPath, BendsKeepTheDirectionAtTheFootprint) {
   EXPECT_LE(best, 1e-4);
 }
 
+// With `near`, every segment within near of p (beyond the closest one's distance) is held by a
+// leg of its own direction, not only the closest point's: inside a tight curl a footprint sees
+// the walls of the legs beside its own, and a chord over several of them turned the border
+// between two legs' walls (the passes fuzzer's p75_0; docs/grooves.md, "Bends"). A curl of radius
+// 0.11 mm in sixteen segments of 14 um (7.3 degrees each), seen from 0.06 mm inside it, with the
+// integrator's tolerances at a footprint radius of 11 um.
+TEST(ScratchPath, BendsKeepTheDirectionOfTheSegmentsNearTheFootprint) {
+  const double r = 0.11, step = 2 * std::asin(0.007 / r);
+  std::vector<Vec2d> curl;
+  for (int k = 0; k <= 16; ++k) curl.push_back({r * std::cos(step * (k - 8)), r * std::sin(step * (k - 8))});
+  const ScratchPath path = ScratchPath::polyline(curl);
+  // p 0.06 mm in from the curl, a third of the way along the segment after vertex 8.
+  const Vec2d c8 = curl[8], c9 = curl[9];
+  const Vec2d on = c8 + (c9 - c8) * (1.0 / 3);
+  const Vec2d p = on * ((r - 0.06) / std::hypot(on.x, on.y));
+  const PathPoint pp = path.closest(Vec2f(float(p.x), float(p.y)));
+  const double s = double(pp.s), fp = 0.011, dev = M_PI / 180, near = 2 * fp;
+  ASSERT_EQ(pp.seg, 8);
+  std::vector<ScratchPath::Corner> bends;
+  std::pair<double, double> span;
+  // The largest turn between a segment within near of p (beyond the closest one's distance) and
+  // the bends' leg that holds it.
+  const double d_seg = double(pp.distance);
+  auto worst = [&] {
+    double w = 0;
+    for (size_t j = 0; j + 1 < curl.size(); ++j) {
+      const Vec2d a = curl[j], d = curl[j + 1] - a;
+      const double t = std::clamp(((p.x - a.x) * d.x + (p.y - a.y) * d.y) / (d.x * d.x + d.y * d.y), 0.0, 1.0);
+      if (!(std::hypot(p.x - a.x - d.x * t, p.y - a.y - d.y * t) <= d_seg + near)) continue;
+      if (!(path.arcLengths()[j] >= span.first && path.arcLengths()[j + 1] <= span.second)) continue;
+      // The leg: from the last bend at or before vertex j to the first at or after j + 1.
+      Vec2d from = path.pointAt(span.first), to = path.pointAt(span.second);
+      for (const ScratchPath::Corner& c : bends) {
+        if (c.vertex <= j) from = c.p;
+        if (c.vertex >= j + 1) {
+          to = c.p;
+          break;
+        }
+      }
+      const Vec2d l = to - from;
+      w = std::max(w, std::fabs(std::atan2(l.x * d.y - l.y * d.x, l.x * d.x + l.y * d.y)));
+    }
+    return w;
+  };
+  ASSERT_TRUE(path.bendsAround(s, p, 0.2, 0.05 * fp, 0.03, 0.0, 16, dev, bends, span));
+  const double before = worst();
+  const size_t n_before = bends.size();
+  ASSERT_TRUE(path.bendsAround(s, p, 0.2, 0.05 * fp, 0.03, 0.0, 16, dev, bends, span, near));
+  std::printf("[          ] segments near p off their legs by %.2f deg with %zu bends, %.2g deg with %zu\n",
+              before * 180 / M_PI, n_before, worst() * 180 / M_PI, bends.size());
+  EXPECT_GT(before, dev);
+  EXPECT_LT(worst(), 1e-9);
+  EXPECT_GT(bends.size(), n_before);
+  EXPECT_LE(bends.size(), 16u);
+  // Where holding them all would take more than max_bends, only the closest point's segment is
+  // held, as without `near`.
+  std::vector<ScratchPath::Corner> few, plain;
+  ASSERT_TRUE(path.bendsAround(s, p, 0.2, 0.05 * fp, 0.03, 0.0, n_before, dev, plain, span));
+  ASSERT_TRUE(path.bendsAround(s, p, 0.2, 0.05 * fp, 0.03, 0.0, n_before, dev, few, span, near));
+  ASSERT_EQ(few.size(), plain.size());
+  for (size_t k = 0; k < few.size(); ++k) EXPECT_EQ(few[k].vertex, plain[k].vertex);
+}
+
 TEST(ScratchPath, SideAndEnds) {
   ScratchPath p = ScratchPath::polyline({{0, 0}, {10, 0}, {10, 10}});  // right, then up (left turn)
   PathPoint a = p.closest({5, 1});

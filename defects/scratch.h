@@ -98,7 +98,9 @@ class ScratchPath {
   PathPoint closestOnSegments(Vec2f p, float max_dist, size_t first, size_t last) const;
 
   // An interior vertex where the path turns by at least kCornerTurn (rad): a polyline's corner, or
-  // a kink between two cubic curves (the small turns of a flattened curve stay below it). The
+  // a kink between two cubic curves. A flattened curve's own turns stay below it where its radius
+  // is above about 0.26 mm (at the 1 um chord error, turns of sqrt(8 e / r)); on a tighter curve
+  // some of its vertices pass it, and the bends around them (bendsAround) carry the curve. The
   // groove renderer gives such a vertex its two legs and the round outer side the explicit
   // geometry has there (render/groove_area.h, cornerParts). turn > 0: to the left.
   struct Corner {

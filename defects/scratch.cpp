@@ -213,6 +213,14 @@ bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, doubl
   for (size_t i = a; i <= b && !strays; ++i) strays = std::fabs(cross(t, pts_[i] - q)) > min_stray;
   if (!strays) return false;
   thread_local std::vector<char> keep;
+  // The window's segments within `near` of p beyond s's segment's distance (the same every round).
+  thread_local std::vector<size_t> near_segs;
+  near_segs.clear();
+  if (near > 0) {
+    const double d_max = segDist(p, pts_[seg], pts_[seg + 1]) + near;
+    for (size_t j = a; j < b; ++j)
+      if (segDist(p, pts_[j], pts_[j + 1]) <= d_max) near_segs.push_back(j);
+  }
   double dp_tol = tol;
   for (int round = 0; round <= 16; ++round, (growth > 0 ? growth : dp_tol) *= 2) {
     keep.assign(pts_.size(), 0);
@@ -236,18 +244,16 @@ bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, doubl
       for (size_t i = a + 1; i < b; ++i) n += keep[i] != 0;
       return n;
     };
-    // The segments near p as well (near > 0), while the bends stay within max_bends. Keeping a
-    // vertex splits a leg into chords that may turn from their segments anew, so until none does
-    // (each pass keeps at least one more vertex of the window, or stops).
-    if (near > 0 && countKept() <= max_bends) {
+    // The segments near p as well, while the bends stay within max_bends. Keeping a vertex splits
+    // a leg into chords that may turn from their segments anew, so until none does (each pass
+    // keeps at least one more vertex of the window, or stops).
+    if (!near_segs.empty() && countKept() <= max_bends) {
       thread_local std::vector<char> before;
       before = keep;
-      const double d_max = segDist(p, pts_[seg], pts_[seg + 1]) + near;
       bool added = true;
       while (added) {
         added = false;
-        for (size_t j = a; j < b; ++j)
-          if (segDist(p, pts_[j], pts_[j + 1]) <= d_max) added = holdDirection(j) || added;
+        for (size_t j : near_segs) added = holdDirection(j) || added;
       }
       if (countKept() > max_bends) keep = before;
     }

@@ -2028,17 +2028,21 @@ class Tracer {
         if (!ok) break;
       }
       // Without bends, only where two runs' legs come within the groove's width of each other
-      // where the footprint can be seen from (the footprint's box grown by the view's reach, in the
-      // disc about F that holds it): elsewhere the composite of their grooves is the partition's
-      // surface, at a fraction of its cost. (The accuracy test's `zigzag` under the bar, whose
-      // corners' legs lie 0.4 mm apart, took 1.3 times its time joined, for the same figures. With
-      // the whole region, the lights' reach too, the corner fuzzer's c3_18 took 1.4 times the time
-      // of this rule for the same figures, and c5_8, c3_1 and c5_17 gained no more.)
+      // within the region (its square, in the disc about F that holds it): elsewhere the composite
+      // of their grooves is the partition's surface, at a fraction of its cost. (The accuracy
+      // test's `zigzag` under the bar, whose corners' legs lie 0.4 mm apart, took 1.3 times its
+      // time joined everywhere, for the same figures.) Until the fifty-ninth session this looked
+      // only where the footprint can be seen from (the view's reach, not the lights'), which the
+      // camera rays see right; but the footprint's reflected rays cross the whole region, and
+      // there the composite stood one pass's pile-up over the other's where the nearer pass holds:
+      // in the corner fuzzer's c78_3 (legs 0.19 mm apart, ring light, 1 degree) the outer flank of
+      // one leg's pile-up mirrored the ring into the other leg's wall, 0.69% of pixels >= 10
+      // against geometry at 2,048 spp, 0% joined (docs/grooves.md, "A path that comes back").
       bool touch = false;
       for (size_t j : members) touch = touch || bent[j];
       if (ok && !touch) {
         const double w = 2 * sc->referenceProfile().halfExtent() * double(sc->maxScale()) * mm;  // (profile in uv)
-        const double r = fp_r + double(view_reach) * std::sqrt(2.0) + 1e-3;
+        const double r = fp_r + (reach_max + grow) * std::sqrt(2.0);
         for (size_t k = 0, run_k = 0; k < run_legs.size() && !touch; ++k) {
           while (run_k < run_starts.size() && run_starts[run_k] <= k) ++run_k;  // leg k is in run run_k
           const size_t next = run_k < run_starts.size() ? run_starts[run_k] : run_legs.size();

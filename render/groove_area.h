@@ -181,7 +181,12 @@ bool cornerParts(const Groove& in, const Groove& out, double max_sector, std::ve
 // those that its others do not imply (within kThinCut). Appends the parts to `out_parts`
 // (cleared first). False (nothing appended) where the partition needs more than kMaxChainCells
 // cells or a cell more than Groove::kMaxDom half-planes that its others do not imply.
-constexpr size_t kMaxChainCells = 400;
+// (400 until the fifty-ninth session. A cubic that curls twice within 0.2 mm, seen on one curl's
+// wall, took 14 bends whose partition has about 430 cells; at 400 the window fell back to 8
+// bends, which drew the other curl as one corner whose chord ran 18 um inside the path, and
+// another scratch's pile-up stood up as a wall there that sent a glint into the bar (the passes
+// fuzzer's p76_0; docs/grooves.md, "Bends").)
+constexpr size_t kMaxChainCells = 1000;
 // No cell of the partition is narrower than kThinCut (mm) across one of its cuts: a line that
 // passes within it of a cell's far side leaves the cell whole. A tenth of a nanometre, far below
 // anything a footprint resolves; the strips that lines computed in different frames left between

@@ -1276,6 +1276,46 @@ TEST(Render, CloseViewStrataShareTheirPolygonSurface) {
   EXPECT_LT(diff / sum_own, 0.02);
 }
 
+namespace {
+
+// A fuzzer layout seen close, 16 x 16 at two bounces, by the groove renderer at 4 spp and by
+// explicit geometry at 256 (with the fuzzer's seed: the default perturbations of the scratches'
+// depths are drawn from it): the mean linear red of each over pixels [x0, x1] x [y0, y1].
+struct PatchLight {
+  double groove = 0, geometry = 0;
+  uint64_t polygons = 0;  // the groove render's polygon footprints
+};
+// (`scene`: lights, camera and defects; the part is a 20 mm aluminium plate at roughness 0.15.)
+PatchLight closeViewPatch(const std::string& scene, int x0, int x1, int y0, int y1) {
+  PatchLight out;
+  for (bool groove : {true, false}) {
+    const std::string yaml = "part: {type: plate, width_mm: 20, height_mm: 20}\n"
+                             "material: {type: metal, metal: aluminium, roughness: 0.15}\n" +
+                             scene + "render: {resolution: [16, 16], max_bounces: 2, " +
+                             (groove ? "spp: 4, scratches: groove}\n" : "spp: 256, scratches: geometry}\n");
+    Dataset ds = prepareDataset(parseConfig(yaml, "close.yaml"));
+    Sample s = makeSample(ds, 11, 0);
+    const RenderFrame f = render(s.scene, s.settings);
+    double sum = 0;
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) sum += f.rgb.at(x, y)[0];
+    (groove ? out.groove : out.geometry) = sum / ((x1 - x0 + 1) * (y1 - y0 + 1));
+    if (groove) out.polygons = f.stats.groove_polygons;
+  }
+  return out;
+}
+
+// The groove render's light over the geometry's within [lo, hi], printed with `what`.
+void expectRatio(const PatchLight& l, const char* what, double lo, double hi) {
+  ASSERT_GT(l.polygons, 0u);
+  const double ratio = l.groove / l.geometry;
+  std::printf("%s: groove %.4f, geometry %.4f (ratio %.3f)\n", what, l.groove, l.geometry, ratio);
+  EXPECT_GT(ratio, lo);
+  EXPECT_LT(ratio, hi);
+}
+
+}  // namespace
+
 // Two legs of one path 0.19 mm apart (the corner fuzzer's c78_3, its second scratch), seen close
 // under a ring light on the upper leg's outer wall, 0.09 mm from its centre line and 0.26 mm from
 // the lower leg's. The wall mirrors the camera's rays across the groove at about 10 degrees; in
@@ -1285,41 +1325,20 @@ TEST(Render, CloseViewStrataShareTheirPolygonSurface) {
 // outer flank over that ridge, and it mirrored the ring back into the wall: 2.1 times the light.
 // (The ring's radii are scaled with the camera's distance, 6 mm here against 60 in the fuzzer.)
 TEST(Render, APathsPassesAreJoinedWhereTheFootprintsReflectedRaysReach) {
-  auto cfg = [](const std::string& render) {
-    return "part: {type: plate, width_mm: 20, height_mm: 20}\n"
-           "material: {type: metal, metal: aluminium, roughness: 0.15}\n"
-           "lights:\n  - {type: ring, radius_mm: 3, inner_radius_mm: 2, radiance: [6, 6, 6]}\n"
-           "  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n"
-           "camera: {fov_deg: 1, position: [-0.251, 0.338, 6], target: [-0.251, 0.338, 0]}\n"
-           "render: {resolution: [16, 16], max_bounces: 2, " + render + "}\n"
-           "defects:\n"
-           "  - {type: scratch, count: 1, pattern: path, curve: polyline, center: [0.5008, 0.4872],"
-           " path_mm: [-3.7781, 0.5360, 0.2143, 0.2889, 0.5693, -0.6450, 1.1578, 0.2416, -2.7739, 0.9776],"
-           " force_kg: 3.61, hardness_hv: 30}\n";
-  };
-  // (The fuzzer's seed: the default perturbation of the depth along the path is drawn from it.)
-  auto renderWith = [&](const std::string& render) {
-    Dataset ds = prepareDataset(parseConfig(cfg(render), "passes.yaml"));
-    Sample s = makeSample(ds, 11, 0);
-    return dg::render(s.scene, s.settings);
-  };
-  const RenderFrame groove = renderWith("spp: 4, scratches: groove");
-  const RenderFrame geometry = renderWith("spp: 256, scratches: geometry");
-  ASSERT_GT(groove.stats.groove_polygons, 0u);
   // Rows 5 to 8: the wall below the crest, lit over two bounces only (rows 0 to 4 are the plate
   // and the pile-up's outer flank, lit directly; below row 8 the wall sends the ring's light back
   // over the far wall in both).
-  auto rows = [](const RenderFrame& f) {
-    double sum = 0;
-    for (int y = 5; y <= 8; ++y)
-      for (int x = 0; x < 16; ++x) sum += f.rgb.at(x, y)[0];
-    return sum / 64;
-  };
-  const double g = rows(groove), r = rows(geometry);
-  std::printf("wall lit over two bounces: groove %.4f, geometry %.4f (ratio %.3f)\n", g, r, g / r);
+  const PatchLight l = closeViewPatch(
+      "lights:\n  - {type: ring, radius_mm: 3, inner_radius_mm: 2, radiance: [6, 6, 6]}\n"
+      "  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n"
+      "camera: {fov_deg: 1, position: [-0.251, 0.338, 6], target: [-0.251, 0.338, 0]}\n"
+      "defects:\n"
+      "  - {type: scratch, count: 1, pattern: path, curve: polyline, center: [0.5008, 0.4872],"
+      " path_mm: [-3.7781, 0.5360, 0.2143, 0.2889, 0.5693, -0.6450, 1.1578, 0.2416, -2.7739, 0.9776],"
+      " force_kg: 3.61, hardness_hv: 30}\n",
+      0, 15, 5, 8);
   // (Written: 0.0510 against 0.0592, 0.86; composited 0.1231, 2.08. Geometry at 4,096 spp: 0.0580.)
-  EXPECT_GT(g / r, 0.75);
-  EXPECT_LT(g / r, 1.33);
+  expectRatio(l, "wall lit over two bounces", 0.75, 1.33);
 }
 
 // The passes fuzzer's p76_0 seen close: a cubic whose path curls twice within 0.2 mm (tips of
@@ -1332,42 +1351,21 @@ TEST(Render, APathsPassesAreJoinedWhereTheFootprintsReflectedRaysReach) {
 // cubic's wall 14 micrometres below the plate, and the wall sent the rays back into the bar: a
 // glint that geometry does not have.
 TEST(Render, ACurlBeyondTheFootprintKeepsItsBendsUnderTheCellCap) {
-  auto cfg = [](const std::string& render) {
-    return "part: {type: plate, width_mm: 20, height_mm: 20}\n"
-           "material: {type: metal, metal: aluminium, roughness: 0.15}\n"
-           "lights:\n  - {type: bar, length_mm: 300, width_mm: 20, distance_mm: 200, elevation_deg: 12,"
-           " azimuth_deg: 90, radiance: [25, 25, 25]}\n  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n"
-           "camera: {fov_deg: 1, position: [0.4254, 0.1418, 6], target: [0.4254, 0.1418, 0]}\n"
-           "render: {resolution: [16, 16], max_bounces: 2, " + render + "}\n"
-           "defects:\n"
-           "  - {type: scratch, count: 1, pattern: path, curve: polyline, center: [0.4824, 0.5064],"
-           " path_mm: [4.7699, -1.2075, -5.9383, 1.3095, -5.8316, 1.7632, 4.8765, -0.7537], force_kg: 2.48,"
-           " hardness_hv: 60, perturbation: 0.40, pileup: 0.83}\n"
-           "  - {type: scratch, count: 1, pattern: path, curve: bezier, center: [0.5174, 0.5059],"
-           " path_mm: [-1.0524, 1.4727, 0.8831, -2.3027, -0.1510, 2.2780, -0.2768, -1.9628], force_kg: 3.04,"
-           " hardness_hv: 30, pileup: 0.40}\n";
-  };
-  // (The fuzzer's seed: the cubic's default perturbation of its depth is drawn from it.)
-  auto renderWith = [&](const std::string& render) {
-    Dataset ds = prepareDataset(parseConfig(cfg(render), "curls.yaml"));
-    Sample s = makeSample(ds, 11, 0);
-    return dg::render(s.scene, s.settings);
-  };
-  const RenderFrame groove = renderWith("spp: 4, scratches: groove");
-  const RenderFrame geometry = renderWith("spp: 256, scratches: geometry");
-  ASSERT_GT(groove.stats.groove_polygons, 0u);
   // Pixels (8..9, 7..9): the wall where the glint was; geometry has only the dome's light there
   // (0.034 to 0.040 each). (Column 7 borders a true glint that the path tracer finds in rare
   // bright samples: 0.03 or 0.12 with two noise seeds.)
-  auto patch = [](const RenderFrame& f) {
-    double sum = 0;
-    for (int y = 7; y <= 9; ++y)
-      for (int x = 8; x <= 9; ++x) sum += f.rgb.at(x, y)[0];
-    return sum / 6;
-  };
-  const double g = patch(groove), r = patch(geometry);
-  std::printf("the upper curl's wall: groove %.4f, geometry %.4f (ratio %.2f)\n", g, r, g / r);
+  const PatchLight l = closeViewPatch(
+      "lights:\n  - {type: bar, length_mm: 300, width_mm: 20, distance_mm: 200, elevation_deg: 12,"
+      " azimuth_deg: 90, radiance: [25, 25, 25]}\n  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n"
+      "camera: {fov_deg: 1, position: [0.4254, 0.1418, 6], target: [0.4254, 0.1418, 0]}\n"
+      "defects:\n"
+      "  - {type: scratch, count: 1, pattern: path, curve: polyline, center: [0.4824, 0.5064],"
+      " path_mm: [4.7699, -1.2075, -5.9383, 1.3095, -5.8316, 1.7632, 4.8765, -0.7537], force_kg: 2.48,"
+      " hardness_hv: 60, perturbation: 0.40, pileup: 0.83}\n"
+      "  - {type: scratch, count: 1, pattern: path, curve: bezier, center: [0.5174, 0.5059],"
+      " path_mm: [-1.0524, 1.4727, 0.8831, -2.3027, -0.1510, 2.2780, -0.2768, -1.9628], force_kg: 3.04,"
+      " hardness_hv: 30, pileup: 0.40}\n",
+      8, 9, 7, 9);
   // (Written: 0.0349 against 0.0355, 0.98; at the old cap 0.1634, 4.6.)
-  EXPECT_LT(g / r, 1.5);
-  EXPECT_GT(g / r, 0.67);
+  expectRatio(l, "the upper curl's wall", 0.67, 1.5);
 }

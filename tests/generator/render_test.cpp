@@ -34,9 +34,10 @@ std::string oneDent(double radius, double depth, double thr = 0.1) {
          "\n    center: [0.5, 0.5]\n";
 }
 
-RenderFrame renderConfig(const std::string& yaml, bool rgb, bool coverage, Sample* keep = nullptr) {
+RenderFrame renderConfig(const std::string& yaml, bool rgb, bool coverage, Sample* keep = nullptr,
+                         uint64_t seed = 1) {
   Dataset ds = prepareDataset(parseConfig(yaml, "test.yaml"));
-  Sample s = makeSample(ds, 1, 0);
+  Sample s = makeSample(ds, seed, 0);
   s.settings.want_rgb = rgb;
   s.settings.want_coverage = coverage;
   RenderFrame f = render(s.scene, s.settings);
@@ -1293,9 +1294,7 @@ PatchLight closeViewPatch(const std::string& scene, int x0, int x1, int y0, int 
                              "material: {type: metal, metal: aluminium, roughness: 0.15}\n" +
                              scene + "render: {resolution: [16, 16], max_bounces: 2, " +
                              (groove ? "spp: 4, scratches: groove}\n" : "spp: 256, scratches: geometry}\n");
-    Dataset ds = prepareDataset(parseConfig(yaml, "close.yaml"));
-    Sample s = makeSample(ds, 11, 0);
-    const RenderFrame f = render(s.scene, s.settings);
+    const RenderFrame f = renderConfig(yaml, true, false, nullptr, 11);
     double sum = 0;
     for (int y = y0; y <= y1; ++y)
       for (int x = x0; x <= x1; ++x) sum += f.rgb.at(x, y)[0];

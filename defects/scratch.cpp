@@ -197,7 +197,7 @@ void ScratchPath::keepRetracesAlike(size_t a, size_t b, std::vector<char>& keep)
 
 bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, double growth, double min_stray,
                               size_t max_bends, double max_dev, std::vector<Corner>& out,
-                              std::pair<double, double>& span, double near) const {
+                              std::pair<double, double>& span, double near, size_t max_near) const {
   out.clear();
   // The window: from s's segment out to the first vertex on each side beyond `reach`.
   const size_t last = pts_.size() - 1;
@@ -244,9 +244,10 @@ bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, doubl
       for (size_t i = a + 1; i < b; ++i) n += keep[i] != 0;
       return n;
     };
-    // The segments near p as well, while the bends stay within max_bends. Keeping a vertex splits
+    // The segments near p as well, while the bends stay within max_near. Keeping a vertex splits
     // a leg into chords that may turn from their segments anew, so until none does (each pass
     // keeps at least one more vertex of the window, or stops).
+    size_t limit = max_bends;
     if (!near_segs.empty() && countKept() <= max_bends) {
       thread_local std::vector<char> before;
       before = keep;
@@ -255,12 +256,15 @@ bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, doubl
         added = false;
         for (size_t j : near_segs) added = holdDirection(j) || added;
       }
-      if (countKept() > max_bends) keep = before;
+      if (countKept() > std::max(max_near, max_bends))
+        keep = before;
+      else
+        limit = std::max(max_near, max_bends);
     }
     keepRetracesAlike(a, b, keep);
     const size_t kept = countKept();
     if (kept == 0) return false;
-    if (kept > max_bends) continue;
+    if (kept > limit) continue;
     size_t prev = a;
     for (size_t i = a + 1; i < b; ++i) {
       if (!keep[i]) continue;

@@ -138,12 +138,13 @@ class ScratchPath {
   // within near of p beyond s's own segment's distance (the segments that are the closest to
   // some point of a footprint of radius near / 2 about p): inside a tight curve the borders
   // between the legs' walls (their angle bisectors) then stand where the path's own do, as long
-  // as that keeps no more than max_bends (else only s's segment is held so). Where more than
-  // max_bends are kept, growth is doubled (tol where growth is 0), up to 16 times, so that the
-  // path stays as close near p. False (out cleared) where no vertex is kept, or past that.
+  // as that keeps no more than max_near bends, or max_bends where that is more (else only s's
+  // segment is held so). Where the simplification alone keeps more than max_bends, growth is
+  // doubled (tol where growth is 0), up to 16 times, so that the path stays as close near p.
+  // False (out cleared) where no vertex is kept, or past that.
   bool bendsAround(double s, Vec2d p, double reach, double tol, double growth, double min_stray, size_t max_bends,
                    double max_dev, std::vector<Corner>& out, std::pair<double, double>& span,
-                   double near = 0) const;
+                   double near = 0, size_t max_near = 0) const;
 
  private:
   void finish();  // arc lengths, box, float copy, segment grid

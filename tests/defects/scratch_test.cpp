@@ -909,13 +909,22 @@ TEST(ScratchPath, BendsKeepTheDirectionOfTheSegmentsNearTheFootprint) {
   EXPECT_LT(worst(), 1e-9);
   EXPECT_GT(bends.size(), n_before);
   EXPECT_LE(bends.size(), 16u);
-  // Where holding them all would take more than max_bends, only the closest point's segment is
-  // held, as without `near`.
+  // Where holding them all would take more than max_bends (and max_near), only the closest
+  // point's segment is held, as without `near`.
   std::vector<ScratchPath::Corner> few, plain;
   ASSERT_TRUE(path.bendsAround(s, p, 0.2, 0.05 * fp, 0.03, 0.0, n_before, dev, plain, span));
   ASSERT_TRUE(path.bendsAround(s, p, 0.2, 0.05 * fp, 0.03, 0.0, n_before, dev, few, span, near));
   ASSERT_EQ(few.size(), plain.size());
   for (size_t k = 0; k < few.size(); ++k) EXPECT_EQ(few[k].vertex, plain[k].vertex);
+  ASSERT_TRUE(path.bendsAround(s, p, 0.2, 0.05 * fp, 0.03, 0.0, n_before, dev, few, span, near, n_before));
+  ASSERT_EQ(few.size(), plain.size());
+  // max_near above that holds them all, with the simplification's own bends (max_bends) as they
+  // were: the same bends as with max_bends 16.
+  ASSERT_TRUE(path.bendsAround(s, p, 0.2, 0.05 * fp, 0.03, 0.0, n_before, dev, bends, span, near, 16));
+  EXPECT_LT(worst(), 1e-9);
+  ASSERT_TRUE(path.bendsAround(s, p, 0.2, 0.05 * fp, 0.03, 0.0, 16, dev, few, span, near));
+  ASSERT_EQ(few.size(), bends.size());
+  for (size_t k = 0; k < few.size(); ++k) EXPECT_EQ(few[k].vertex, bends[k].vertex);
 }
 
 TEST(ScratchPath, SideAndEnds) {

@@ -1575,6 +1575,15 @@ class Tracer {
   // one beside the footprint's, moved that border 4 um and stood its wall's glint where the
   // path's own walls have none (docs/grooves.md, "Bends").
   static constexpr double kBendNear = 2.0;
+  // Those segments may take the bends up to kNearBends times the window's max_bends (the
+  // simplification itself keeps at most max_bends). Inside a loop the segments near a footprint
+  // on the loop's inner wall are many: in the passes fuzzer's p82_2 (a cubic's loop of radius
+  // about 0.15 mm, seen at 2 degrees from its inner wall 0.12 mm off the path) they took 13 bends
+  // to 26-31, and at a cap of 16 the window dropped them all. Legs of 0.05 to 0.1 mm, turning 15
+  // to 30 degrees at each bend, then stood for the wall; under the bar one of them, 10 degrees off
+  // the path's own direction there, mirrored the bar into pixels that geometry has dark (0.52% of
+  // pixels >= 10 against geometry at 2,048 spp; 0.17% with them held; docs/grooves.md, "Bends").
+  static constexpr size_t kNearBends = 2;
   // The corners cornerGroove takes for ng: `at` the one cornerAround gives, [lo, hi] the chain
   // around it (on along the path both ways while the next corner is within `reach` of the
   // footprint's centre F, at most kMaxChain; the one corner alone where the path has faded out at
@@ -1922,7 +1931,7 @@ class Tracer {
       // a tight curl stands a straight groove over it.
       for (size_t max_bends = kMaxBends; max_bends >= kMinBends && !bent[i]; max_bends /= 2) {
         if (!path.bendsAround(double(ng.pp.s), F, corner_reach, kBendTol * fp_uv, kBendGrowth, min_stray, max_bends,
-                              kBendDev, bends, span, kBendNear * fp_uv))
+                              kBendDev, bends, span, kBendNear * fp_uv, kNearBends * max_bends))
           break;
         // Just the corners chainRange found: those.
         bool same = has_corner[i] && bends.size() == chain[i][2] - chain[i][1] + 1;

@@ -256,10 +256,11 @@ bool ScratchPath::bendsAround(double s, Vec2d p, double reach, double tol, doubl
         added = false;
         for (size_t j : near_segs) added = holdDirection(j) || added;
       }
-      if (countKept() > std::max(max_near, max_bends))
+      const size_t near_cap = std::max(max_near, max_bends);
+      if (countKept() > near_cap)
         keep = before;
       else
-        limit = std::max(max_near, max_bends);
+        limit = near_cap;
     }
     keepRetracesAlike(a, b, keep);
     const size_t kept = countKept();

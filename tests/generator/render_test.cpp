@@ -1233,8 +1233,7 @@ TEST(Render, CloseViewStrataShareTheirPolygonSurface) {
   const std::string cfg =
       "part: {type: plate, width_mm: 20, height_mm: 20}\n"
       "material: {type: metal, metal: aluminium, roughness: 0.15}\n"
-      "lights:\n  - {type: bar, length_mm: 300, width_mm: 20, distance_mm: 200, elevation_deg: 12,"
-      " azimuth_deg: 90, radiance: [25, 25, 25]}\n  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n"
+      "lights:\n" + kBarLight + "  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n"
       "camera: {fov_deg: 1, position: [0.15, 0.1, 30], target: [0.15, 0.1, 0]}\n"
       "render: {resolution: [24, 24], spp: 4, max_bounces: 4, scratches: groove}\n"
       "defects:\n"
@@ -1355,8 +1354,7 @@ TEST(Render, ACurlBeyondTheFootprintKeepsItsBendsUnderTheCellCap) {
   // (0.034 to 0.040 each). (Column 7 borders a true glint that the path tracer finds in rare
   // bright samples: 0.03 or 0.12 with two noise seeds.)
   const PatchLight l = closeViewPatch(
-      "lights:\n  - {type: bar, length_mm: 300, width_mm: 20, distance_mm: 200, elevation_deg: 12,"
-      " azimuth_deg: 90, radiance: [25, 25, 25]}\n  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n"
+      "lights:\n" + kBarLight + "  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n"
       "camera: {fov_deg: 1, position: [0.4254, 0.1418, 6], target: [0.4254, 0.1418, 0]}\n"
       "defects:\n"
       "  - {type: scratch, count: 1, pattern: path, curve: polyline, center: [0.4824, 0.5064],"
@@ -1381,8 +1379,7 @@ TEST(Render, TheSegmentsNearAFootprintInsideALoopKeepTheirDirectionsPastTheBendC
   // Column 7, rows 6 to 8: beside the glint at (8, 7) (about 10 in both), and dark in geometry
   // but for the glint's edge (0.033, 0.100 and 0.036 at 4,096 spp).
   const PatchLight l = closeViewPatch(
-      "lights:\n  - {type: bar, length_mm: 300, width_mm: 20, distance_mm: 200, elevation_deg: 12,"
-      " azimuth_deg: 90, radiance: [25, 25, 25]}\n  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n"
+      "lights:\n" + kBarLight + "  - {type: dome, radiance: [0.04, 0.04, 0.04]}\n"
       "camera: {fov_deg: 1, position: [-0.698, -0.436, 40], target: [-0.698, -0.436, 0]}\n"
       "defects:\n"
       "  - {type: scratch, count: 1, pattern: path, curve: polyline, center: [0.4831, 0.4936],"

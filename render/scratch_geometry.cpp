@@ -31,10 +31,14 @@ float scratchHeight(const std::vector<const Scratch*>& scratches, Vec2f p, const
 }
 
 bool meetScratchHeight(const std::vector<const Scratch*>& scratches, Vec2d a, Vec2d du, double z0, double slope,
-                       double len, double step, double tol, HeightMeet& out, bool plain) {
+                       double len, double step, double tol, HeightMeet& out, bool plain, bool from_below) {
   if (!(step > 0) || !(len > 0)) return false;
   auto uvOf = [&](double x) { return Vec2f(float(a.x + du.x * x), float(a.y + du.y * x)); };
-  auto below = [&](double x) { return z0 + slope * x < double(scratchHeight(scratches, uvOf(x))) - tol; };
+  // (`below`: past the surface, on the side away from where the ray starts.)
+  auto below = [&](double x) {
+    const double z = z0 + slope * x, h = double(scratchHeight(scratches, uvOf(x)));
+    return from_below ? z > h + tol : z < h - tol;
+  };
   double lo = 0, hi = 0;
   for (double x = std::min(step, len);; x = std::min(x + step, len)) {
     if (below(x)) {

@@ -63,13 +63,16 @@ float scratchHeight(const std::vector<const Scratch*>& scratches, Vec2f p, const
 // (docs/grooves.md, "Rising over the pile-ups beyond") and that leave them downwards ("Past the end
 // of a groove's leg"). False where it stays above, and (without `plain`) where it meets the
 // plain part, where no scratch has a height; with `plain` that meeting counts, out.scratch null.
+// With `from_below` the ray starts under the surface (inside a solid part) and the meeting is where
+// it first goes above the height by more than tol; `from` is then its last sample below.
 struct HeightMeet {
   double from = 0;  // the last sample above (x)
   double at = 0;    // where the ray goes below (x)
   const Scratch* scratch = nullptr;  // whose height that is there (scratchHeight's `which`)
 };
 bool meetScratchHeight(const std::vector<const Scratch*>& scratches, Vec2d a, Vec2d du, double z0, double slope,
-                       double len, double step, double tol, HeightMeet& out, bool plain = false);
+                       double len, double step, double tol, HeightMeet& out, bool plain = false,
+                       bool from_below = false);
 
 // The part with the scratches cut in. Facet normals are exact: a piece's normal is its facet's in
 // the part triangle's plane, turned with the part's interpolated normal at each vertex (so that,

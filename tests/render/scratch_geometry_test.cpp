@@ -966,6 +966,57 @@ TEST(ScratchGeometry, ARisingRayMeetsThePileUpAheadWhereAFineMarchDoes) {
   EXPECT_LT(m.at, 0.5);  // (the wall is within 0.04 mm of the centre line: 0.46 mm along)
 }
 
+// meetScratchHeight from below (the integrator's meetGrooves: a ray inside a glass part that meets
+// the scratched face again): where the ray first goes above the composite height, against a fine
+// march. Under a groove that is its floor or wall, before the plane the smooth surface's hit is on.
+TEST(ScratchGeometry, ARayFromInsideLeavesWhereItFirstGoesAboveTheSurface) {
+  const Scratch groove = Scratch::fromProfile(ScratchPath::polyline({{5.0, 10.0}, {15.0, 10.0}}), pileUpProfile());
+  const std::vector<const Scratch*> list{&groove};
+  auto fine = [&](Vec2d a, Vec2d du, double z0, double slope, double len) {
+    for (double x = 1e-7; x < len; x += 1e-7)
+      if (z0 + slope * x > double(scratchHeight(list, Vec2f(float(a.x + du.x * x), float(a.y + du.y * x)))))
+        return x;
+    return 1e30;
+  };
+  int walls = 0, plain = 0;
+  // From 24 um below the plate (4 under the floor), rising 27 to 79 degrees (2.14: a ray at 25
+  // degrees from the normal, as inside the fuzzer's p84_5), across the groove or along it turned
+  // 30 degrees, from 0.06 mm on either side of the centre line.
+  for (double b0 : {-0.06, -0.03, -0.01, 0.0, 0.02})
+    for (double slope : {0.5, 2.14, 5.0})
+      for (double turn_deg : {0.0, 60.0}) {
+        const double turn = turn_deg * M_PI / 180;
+        const Vec2d a(10.0, 10.0 + b0), du(std::sin(turn), std::cos(turn));
+        const double z0 = -0.024, len = 0.04 / slope;  // (to 16 um above the pile-ups' crests)
+        HeightMeet m;
+        SCOPED_TRACE(::testing::Message() << "b0 " << b0 << " slope " << slope << " turn " << turn_deg);
+        ASSERT_TRUE(meetScratchHeight(list, a, du, z0, slope, len, 0.0025, 1e-7, m, true, true));
+        const double x_fine = fine(a, du, z0, slope, len);
+        EXPECT_NEAR(m.at, x_fine, 5e-6);  // (the bisection's step / 1024, 2.4e-6, and float UV: 1e-6 at 10 mm)
+        EXPECT_LE(m.from, m.at);
+        if (m.scratch) {
+          ++walls;
+          EXPECT_EQ(m.scratch, &groove);
+          // In a groove's channel, before the plane (z = 0, at x = 0.024 / slope).
+          if (z0 + slope * m.at < -1e-4) EXPECT_LT(m.at, (0.024 - 1e-4) / slope);
+        } else {
+          ++plain;
+          EXPECT_NEAR(m.at, 0.024 / slope, 3e-6);  // the plain part: the plane itself
+        }
+        // Without `plain` a meeting with the plain part does not count.
+        HeightMeet m2;
+        EXPECT_EQ(meetScratchHeight(list, a, du, z0, slope, len, 0.0025, 1e-7, m2, false, true), m.scratch != nullptr);
+      }
+  EXPECT_GT(walls, 15);
+  EXPECT_GT(plain, 3);
+  // From below the plain part far from the groove it meets the plane; rising too little to reach
+  // it within len, nothing.
+  HeightMeet m;
+  ASSERT_TRUE(meetScratchHeight(list, Vec2d(10.0, 12.0), Vec2d(0.0, 1.0), -0.01, 1.0, 0.02, 0.0025, 1e-7, m, true, true));
+  EXPECT_NEAR(m.at, 0.01, 3e-6);
+  EXPECT_FALSE(meetScratchHeight(list, Vec2d(10.0, 12.0), Vec2d(0.0, 1.0), -0.01, 0.1, 0.05, 0.0025, 1e-7, m, true, true));
+}
+
 // The march of rays that leave the polygons downwards (the integrator's beyondRegion): past the
 // end of a groove's leg its straight section has a channel and pile-ups that are not there. Over
 // the plate beside the groove the ray meets the plain part, and down its channel the end's wall

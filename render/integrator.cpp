@@ -337,7 +337,7 @@ class Tracer {
     if (has_defects_) {
       DefectQuery q;
       q.point_grooves = point_grooves;
-      q.uv = sp.uv;
+      q.uv = point_grooves ? meetGrooves(sp, wo_world) : sp.uv;
       q.duv_dx = sp.duvdx;
       q.duv_dy = sp.duvdy;
       q.mm_per_uv = sp.mm_per_uv;
@@ -352,6 +352,46 @@ class Tracer {
     if (c < 0.02f) n = normalize(n + wo_world * (0.02f - c));
     sp.ns = n;
     return ds;
+  }
+
+  // Where a ray past the camera hit, arriving along -wo_world at sp on the part's smooth surface,
+  // meets the scratches' surface (scratchHeight, the explicit geometry's): the UV point its
+  // point sample is taken at. The smooth surface's hit is off by the height there times the
+  // ray's tangent of incidence: a ray leaving a glass part from inside at 25 degrees through a
+  // groove 0.06 mm deep meets its wall up to 0.03 mm before the plane, a pixel and more at 1
+  // degree (docs/grooves.md, "Where a ray from inside meets a scratch"). Marched in the tangent
+  // plane from the side the ray comes from, between the highest pile-up and the deepest floor.
+  Vec2f meetGrooves(const SurfacePoint& sp, Vec3f wo_world) const {
+    const Vec3f n_out = sp.outside ? sp.ns : -sp.ns;
+    const Vec3f d = -wo_world;
+    const double dn = double(dot(d, n_out));  // height gained per mm along the ray
+    const double range = double(max_height_) + double(max_depth_);
+    if (!(std::fabs(dn) > 1e-3) || !(range > 0)) return sp.uv;
+    Vec3f pu, pv;
+    dualBasis(sp, pu, pv);
+    const Vec2d du(double(dot(pu, d)), double(dot(pv, d)));  // UV per mm along the ray
+    const bool from_below = dn > 0;
+    const double s0 = (from_below ? -double(max_depth_) : double(max_height_)) / dn;  // (<= 0)
+    const Vec2d a(double(sp.uv.x) + du.x * s0, double(sp.uv.y) + du.y * s0);
+    const double len = range / std::fabs(dn);
+    const double reach = len * std::sqrt(dot(du, du));  // (UV)
+    thread_local std::vector<const Scratch*> near;
+    near.clear();
+    const Vec2f mid(float(a.x + du.x * 0.5 * len), float(a.y + du.y * 0.5 * len));
+    // Only the scratches whose cross-section reaches the ray's span (most such hits are on the
+    // plain part, where the plane is the surface).
+    s_.defect_index.forEach(mid, float(0.5 * reach) + max_half_, [&](const Defect& df) {
+      if (df.cls() != DefectClass::Scratch) return;
+      const auto* sc = static_cast<const Scratch*>(&df);
+      const float half = float(sc->referenceProfile().halfExtent()) * sc->maxScale();
+      if (sc->path().closest(mid, float(0.5 * reach) + half).found) near.push_back(sc);
+    });
+    if (near.empty()) return sp.uv;
+    const double step = std::max(double(min_half_) * double(sp.mm_per_uv) / 8, len / kMarchSteps);
+    HeightMeet m;
+    const double z0 = from_below ? -double(max_depth_) : double(max_height_);
+    if (!meetScratchHeight(near, a, du, z0, dn, len, step, marchTol(), m, true, from_below)) return sp.uv;
+    return Vec2f(float(a.x + du.x * m.at), float(a.y + du.y * m.at));
   }
 
   // The dual basis of (dpdu, dpdv) in the tangent plane: dot(pu, d) and dot(pv, d) are the UV

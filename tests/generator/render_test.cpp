@@ -1278,9 +1278,10 @@ TEST(Render, CloseViewStrataShareTheirPolygonSurface) {
 
 namespace {
 
-// A fuzzer layout seen close, 16 x 16 at two bounces, by the groove renderer at 4 spp and by
-// explicit geometry at geometry_spp (with the fuzzer's seed: the default perturbations of the
-// scratches' depths are drawn from it): the mean linear red of each over pixels [x0, x1] x [y0, y1].
+// A fuzzer layout seen close (PatchView: by default 16 x 16 at two bounces on aluminium), by the
+// groove renderer at 4 spp and by explicit geometry at geometry_spp (with the fuzzer's seed: the
+// default perturbations of the scratches' depths are drawn from it): the mean linear red of each
+// over pixels [x0, x1] x [y0, y1].
 struct PatchLight {
   double groove = 0, geometry = 0;
   uint64_t polygons = 0;  // the groove render's polygon footprints
